@@ -1,0 +1,37 @@
+//! The subcommands of `lander` and their arguments.
+
+mod flight;
+mod run;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "lander",
+    version,
+    about = "The guided genetic algorithm for Lunar Lander planning (Liu, UBC)",
+    long_about = "Evolves landing plans for the Lunar Lander with the general GA or the guided GA \
+                  of Liu's paper, and flies single genomes for inspection."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run one trial and write its generations and best lander.
+    Run(run::RunArgs),
+    /// Fly one genome and print where and how it touched down.
+    Fly(flight::FlyArgs),
+    /// Apply the guided evolve pass to one genome and print the result.
+    Guide(flight::GuideArgs),
+}
+
+pub fn dispatch(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Run(args) => run::run(args),
+        Command::Fly(args) => flight::fly(args),
+        Command::Guide(args) => flight::guide(args),
+    }
+}

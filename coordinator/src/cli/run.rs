@@ -1,0 +1,146 @@
+//! `lander run`: one trial, with a progress bar, written to a folder.
+
+use anyhow::Context;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use lander_coordinator::config::RunConfig;
+use lander_coordinator::evaluator::InProcess;
+use lander_coordinator::report::{write_json, BestRecord, GenerationLog, Summary};
+use lander_coordinator::trial::{run_trial, Generation};
+use lander_protocol::Method;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// A TOML run configuration; flags given here override it.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// `ga` (the general GA) or `guided` (with the evolve pass).
+    #[arg(long, value_enum)]
+    method: Option<MethodArg>,
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Trial number; `x0` and `pad_x` come from (seed, trial).
+    #[arg(long)]
+    trial: Option<u64>,
+    #[arg(long)]
+    population: Option<usize>,
+    /// Evaluation threads; 0 means one per core.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Generations per attempt before a restart with a new pad (paper: 500).
+    #[arg(long)]
+    max_generations: Option<u64>,
+    /// Restarts before the trial ends unlanded; 0 is a single attempt [default: 9].
+    #[arg(long)]
+    max_restarts: Option<u64>,
+    /// Output folder [default: runs/<method>-seed<seed>-trial<trial>].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Print one JSON summary object on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum MethodArg {
+    Ga,
+    Guided,
+}
+
+impl From<MethodArg> for Method {
+    fn from(m: MethodArg) -> Method {
+        match m {
+            MethodArg::Ga => Method::Ga,
+            MethodArg::Guided => Method::Guided,
+        }
+    }
+}
+
+impl RunArgs {
+    fn config(&self) -> anyhow::Result<RunConfig> {
+        let mut cfg = match &self.config {
+            Some(path) => RunConfig::load(path)?,
+            None => RunConfig::default(),
+        };
+        cfg.method = self.method.map_or(cfg.method, Method::from);
+        cfg.seed = self.seed.unwrap_or(cfg.seed);
+        cfg.trial = self.trial.unwrap_or(cfg.trial);
+        cfg.threads = self.threads.unwrap_or(cfg.threads);
+        cfg.ga.population = self.population.unwrap_or(cfg.ga.population);
+        cfg.ga.max_generations = self.max_generations.unwrap_or(cfg.ga.max_generations);
+        cfg.ga.max_restarts = self.max_restarts.unwrap_or(cfg.ga.max_restarts);
+        cfg.validate()?;
+        Ok(cfg)
+    }
+}
+
+pub fn run(args: RunArgs) -> anyhow::Result<()> {
+    let cfg = args.config()?;
+    let out = args.out.clone().unwrap_or_else(|| {
+        PathBuf::from("runs").join(format!(
+            "{}-seed{}-trial{}",
+            cfg.method.name(),
+            cfg.seed,
+            cfg.trial
+        ))
+    });
+    let mut evaluator = InProcess::new(cfg.threads)?;
+    let mut log = GenerationLog::create(&out)?;
+    let bar = progress_bar(cfg.ga.max_generations);
+    let started = Instant::now();
+    let result = run_trial(&cfg, &mut evaluator, &mut |g: &Generation| {
+        show(&bar, g);
+        log.write(g)?;
+        Ok(())
+    })
+    .context("the trial stopped")?;
+    let wall_s = started.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+
+    let best_path = out.join("best.json");
+    write_json(&best_path, &BestRecord::new(&cfg, &result))?;
+    let summary = Summary::new(&cfg, &result, wall_s);
+    if args.json {
+        println!("{}", serde_json::to_string(&summary)?);
+    } else {
+        println!(
+            "{} trial {} (seed {}): {} after {} generations, {} restarts, {:.1}s; best fitness {:.1}",
+            summary.method,
+            summary.trial,
+            summary.seed,
+            if summary.landed { "landed" } else { "did not land" },
+            summary.generations,
+            summary.restarts,
+            wall_s,
+            summary.best_fitness
+        );
+        println!(
+            "wrote {} and {}",
+            out.join("generations.jsonl").display(),
+            best_path.display()
+        );
+    }
+    Ok(())
+}
+
+fn progress_bar(max_generations: u64) -> ProgressBar {
+    let bar = ProgressBar::new(max_generations);
+    let style = ProgressStyle::with_template(
+        "{prefix} [{bar:30}] gen {pos}/{len} {msg} ({per_sec}, {elapsed})",
+    )
+    .unwrap_or_else(|_| ProgressStyle::default_bar())
+    .progress_chars("=> ");
+    bar.set_style(style);
+    bar
+}
+
+fn show(bar: &ProgressBar, g: &Generation) {
+    if g.generation == 1 {
+        bar.reset();
+        bar.set_prefix(format!("restart {}", g.restart));
+    }
+    bar.set_position(g.generation);
+    bar.set_message(format!("best {:.1} mean {:.1}", g.best, g.mean));
+}

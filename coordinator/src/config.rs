@@ -1,0 +1,214 @@
+//! The run configuration: every parameter of SPEC §1–4 with the paper's
+//! defaults, read from TOML and validated field by field.
+
+use crate::ga::GaParams;
+use lander_protocol::{GuideParams, Method, Scoring, World};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Everything one trial needs. Every key is optional in the file; unknown
+/// keys are errors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RunConfig {
+    pub method: Method,
+    pub seed: u64,
+    /// Trials are numbered from 1; trial `t` draws `x0` and `pad_x` from
+    /// `(seed, t)`.
+    pub trial: u64,
+    /// Threads for in-process evaluation; 0 means one per core.
+    pub threads: usize,
+    pub world: World,
+    pub scoring: Scoring,
+    pub guided: GuideParams,
+    pub ga: GaParams,
+}
+
+impl Default for RunConfig {
+    fn default() -> Self {
+        RunConfig {
+            method: Method::Guided,
+            seed: 1,
+            trial: 1,
+            threads: 0,
+            world: World::default(),
+            scoring: Scoring::default(),
+            guided: GuideParams::default(),
+            ga: GaParams::default(),
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("cannot read config file {path}: {source}")]
+    Read {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("config file {path}: {message}")]
+    Parse { path: String, message: String },
+    #[error("invalid configuration: {field} {problem}")]
+    Invalid {
+        field: &'static str,
+        problem: String,
+    },
+}
+
+impl RunConfig {
+    /// Reads and validates a TOML file.
+    pub fn load(path: &Path) -> Result<RunConfig, ConfigError> {
+        let shown = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            path: shown.clone(),
+            source,
+        })?;
+        let cfg: RunConfig = toml::from_str(&text).map_err(|e| ConfigError::Parse {
+            path: shown,
+            message: e.to_string(),
+        })?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Checks every field, naming the first that is out of range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let w = &self.world;
+        positive("world.width", w.width)?;
+        positive("world.height", w.height)?;
+        finite("world.gravity", w.gravity)?;
+        finite("world.thrust", w.thrust)?;
+        positive("world.mass", w.mass)?;
+        positive("world.ticks_per_second", w.ticks_per_second)?;
+        finite("world.rotation_step", w.rotation_step)?;
+        finite("world.start_drop", w.start_drop)?;
+        finite("world.ground_y", w.ground_y)?;
+        positive("world.hull_scale", w.hull_scale)?;
+        non_negative("world.pad_margin", w.pad_margin)?;
+        check(
+            "world.pad_margin",
+            2.0 * w.pad_margin < w.width,
+            "must be less than half of world.width",
+        )?;
+        check("world.max_ticks", w.max_ticks >= 1, "must be at least 1")?;
+
+        let s = &self.scoring;
+        finite("scoring.w1", s.w1)?;
+        finite("scoring.w2", s.w2)?;
+        finite("scoring.w3", s.w3)?;
+        finite("scoring.big_number", s.big_number)?;
+        non_negative("scoring.safe_distance", s.safe_distance)?;
+        non_negative("scoring.safe_speed", s.safe_speed)?;
+        non_negative("scoring.safe_rotation", s.safe_rotation)?;
+
+        let g = &self.guided;
+        probability("guided.epsilon", g.epsilon)?;
+        positive("guided.w_y", g.w_y)?;
+        finite("guided.h1", g.h1)?;
+        finite("guided.r", g.r)?;
+        finite("guided.h2", g.h2)?;
+        finite("guided.w_t", g.w_t)?;
+
+        self.ga.validate()
+    }
+}
+
+pub(crate) fn check(field: &'static str, ok: bool, problem: &str) -> Result<(), ConfigError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(ConfigError::Invalid {
+            field,
+            problem: problem.to_string(),
+        })
+    }
+}
+
+pub(crate) fn finite(field: &'static str, v: f64) -> Result<(), ConfigError> {
+    check(
+        field,
+        v.is_finite(),
+        &format!("must be a finite number (got {v})"),
+    )
+}
+
+pub(crate) fn positive(field: &'static str, v: f64) -> Result<(), ConfigError> {
+    finite(field, v)?;
+    check(field, v > 0.0, &format!("must be greater than 0 (got {v})"))
+}
+
+pub(crate) fn non_negative(field: &'static str, v: f64) -> Result<(), ConfigError> {
+    finite(field, v)?;
+    check(field, v >= 0.0, &format!("must not be negative (got {v})"))
+}
+
+pub(crate) fn probability(field: &'static str, v: f64) -> Result<(), ConfigError> {
+    check(
+        field,
+        (0.0..=1.0).contains(&v),
+        &format!("must be in [0, 1] (got {v})"),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<RunConfig, String> {
+        let cfg: RunConfig = toml::from_str(text).map_err(|e| e.to_string())?;
+        cfg.validate().map_err(|e| e.to_string())?;
+        Ok(cfg)
+    }
+
+    #[test]
+    fn an_empty_file_gives_the_papers_defaults() {
+        let cfg = parse("").unwrap();
+        assert_eq!(cfg, RunConfig::default());
+        assert_eq!(cfg.ga.population, 100);
+        assert_eq!(cfg.ga.genome_length, 50);
+        assert_eq!(cfg.ga.crossover_rate, 0.7);
+        assert_eq!(cfg.ga.mutation_rate, 0.05);
+        assert_eq!(cfg.ga.max_generations, 500);
+        assert_eq!(cfg.ga.elites, 4);
+        assert_eq!(cfg.guided.epsilon, 0.1);
+        assert_eq!(cfg.world.width, 400.0);
+    }
+
+    #[test]
+    fn overrides_are_read_from_their_sections() {
+        let cfg = parse("method = \"ga\"\n[ga]\npopulation = 20\ncrossover = \"buckland\"\n[world]\nwidth = 500.0\n").unwrap();
+        assert_eq!(cfg.method, Method::Ga);
+        assert_eq!(cfg.ga.population, 20);
+        assert_eq!(cfg.ga.crossover, crate::ga::Crossover::Buckland);
+        assert_eq!(cfg.world.width, 500.0);
+    }
+
+    #[test]
+    fn bad_values_are_refused_naming_the_field() {
+        for (text, field) in [
+            ("[ga]\npopulation = 0", "ga.population"),
+            ("[ga]\ncrossover_rate = 1.5", "ga.crossover_rate"),
+            ("[ga]\ncrossover_rate = -0.1", "ga.crossover_rate"),
+            ("[ga]\nmutation_rate = nan", "ga.mutation_rate"),
+            ("[ga]\nmax_duration = 0", "ga.max_duration"),
+            ("[ga]\nelites = 101", "ga.elites"),
+            ("[world]\nwidth = nan", "world.width"),
+            ("[world]\nheight = inf", "world.height"),
+            ("[guided]\nepsilon = 2.0", "guided.epsilon"),
+            ("[scoring]\nw2 = nan", "scoring.w2"),
+        ] {
+            let err = parse(text).unwrap_err();
+            assert!(err.contains(field), "{text:?} gave {err:?}");
+        }
+    }
+
+    #[test]
+    fn unknown_keys_and_methods_are_refused() {
+        let err = parse("[ga]\npopulaton = 10").unwrap_err();
+        assert!(err.contains("unknown field `populaton`"), "{err}");
+        let err = parse("colour = 1").unwrap_err();
+        assert!(err.contains("unknown field `colour`"), "{err}");
+        let err = parse("method = \"annealing\"").unwrap_err();
+        assert!(err.contains("unknown variant `annealing`"), "{err}");
+    }
+}

@@ -1,0 +1,210 @@
+//! The general GA's operators (SPEC §3): random genomes, roulette-wheel
+//! selection, elitism, crossover and mutation.
+//!
+//! Every function takes its generator from the caller, who keys it by
+//! `(seed, trial, restart, generation)`, so a generation is rebuilt the same
+//! way wherever and however often it is run.
+
+use crate::config::{check, non_negative, probability, ConfigError};
+use lander_protocol::{Action, Gene};
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+pub type Genome = Vec<Gene>;
+
+/// How two parents exchange genes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Crossover {
+    /// Each gene swaps with probability 0.5, as the paper describes.
+    Uniform,
+    /// The original code's quirk: `swapRate = U·L`, swap when `U < swapRate`,
+    /// so nearly every gene swaps.
+    Buckland,
+}
+
+/// The GA's parameters, the `[ga]` section of a run configuration.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GaParams {
+    pub population: usize,
+    pub genome_length: usize,
+    /// Durations lie in `0..=max_duration`; new genes draw from `1..=max_duration`.
+    pub max_duration: u8,
+    pub crossover: Crossover,
+    pub crossover_rate: f64,
+    pub mutation_rate: f64,
+    /// A duration mutation adds `trunc((U − U) · duration_mutation_span)`.
+    pub duration_mutation_span: f64,
+    pub elites: usize,
+    /// Generations per attempt; after this many without a safe landing the
+    /// trial restarts.
+    pub max_generations: u64,
+    /// Restarts allowed before a trial ends unlanded; 0 is a single attempt.
+    pub max_restarts: u64,
+}
+
+impl Default for GaParams {
+    fn default() -> Self {
+        GaParams {
+            population: 100,
+            genome_length: 50,
+            max_duration: 30,
+            crossover: Crossover::Uniform,
+            crossover_rate: 0.7,
+            mutation_rate: 0.05,
+            duration_mutation_span: 15.0,
+            elites: 4,
+            max_generations: 500,
+            max_restarts: 9,
+        }
+    }
+}
+
+impl GaParams {
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        check("ga.population", self.population >= 1, "must be at least 1")?;
+        check(
+            "ga.genome_length",
+            self.genome_length >= 1,
+            "must be at least 1",
+        )?;
+        check(
+            "ga.max_duration",
+            self.max_duration >= 1,
+            "must be at least 1",
+        )?;
+        probability("ga.crossover_rate", self.crossover_rate)?;
+        probability("ga.mutation_rate", self.mutation_rate)?;
+        non_negative("ga.duration_mutation_span", self.duration_mutation_span)?;
+        check(
+            "ga.elites",
+            self.elites <= self.population,
+            &format!(
+                "must not exceed ga.population ({} > {})",
+                self.elites, self.population
+            ),
+        )?;
+        check(
+            "ga.max_generations",
+            self.max_generations >= 1,
+            "must be at least 1",
+        )
+    }
+}
+
+pub fn random_gene(p: &GaParams, rng: &mut impl Rng) -> Gene {
+    Gene::new(
+        Action::ALL[rng.random_range(0..4)],
+        rng.random_range(1..=p.max_duration),
+    )
+}
+
+pub fn random_population(p: &GaParams, rng: &mut impl Rng) -> Vec<Genome> {
+    (0..p.population)
+        .map(|_| (0..p.genome_length).map(|_| random_gene(p, rng)).collect())
+        .collect()
+}
+
+/// Indices of `fitness` from best to worst; ties keep population order.
+pub fn ranking(fitness: &[f64]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..fitness.len()).collect();
+    order.sort_by(|&a, &b| fitness[b].total_cmp(&fitness[a]));
+    order
+}
+
+/// A roulette wheel over fitness: index `i` comes up with probability
+/// `fitness[i] / Σ fitness`. Negative fitness counts as zero; a wheel with
+/// nothing on it picks uniformly.
+pub struct Wheel {
+    cumulative: Vec<f64>,
+}
+
+impl Wheel {
+    pub fn new(fitness: &[f64]) -> Wheel {
+        let cumulative = fitness
+            .iter()
+            .scan(0.0, |sum, &f| {
+                *sum += f.max(0.0);
+                Some(*sum)
+            })
+            .collect();
+        Wheel { cumulative }
+    }
+
+    pub fn spin(&self, rng: &mut impl Rng) -> usize {
+        let n = self.cumulative.len();
+        let total = self.cumulative.last().copied().unwrap_or(0.0);
+        if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            return rng.random_range(0..n);
+        }
+        let slice = rng.random::<f64>() * total;
+        self.cumulative.partition_point(|&c| c <= slice).min(n - 1)
+    }
+}
+
+/// Crosses two parents into two children.
+pub fn crossover(p: &GaParams, a: &[Gene], b: &[Gene], rng: &mut impl Rng) -> (Genome, Genome) {
+    let (mut x, mut y) = (a.to_vec(), b.to_vec());
+    if rng.random::<f64>() >= p.crossover_rate {
+        return (x, y);
+    }
+    let swap_rate = match p.crossover {
+        Crossover::Uniform => 0.5,
+        Crossover::Buckland => rng.random::<f64>() * p.genome_length as f64,
+    };
+    for (gx, gy) in x.iter_mut().zip(y.iter_mut()) {
+        if rng.random::<f64>() < swap_rate {
+            std::mem::swap(gx, gy);
+        }
+    }
+    (x, y)
+}
+
+/// Mutates each gene independently: a new action with probability `m`, a
+/// duration nudge with probability `m/2`.
+pub fn mutate(p: &GaParams, genome: &mut [Gene], rng: &mut impl Rng) {
+    let m = p.mutation_rate;
+    for gene in genome {
+        if rng.random::<f64>() < m {
+            gene.action = Action::ALL[rng.random_range(0..4)];
+        }
+        if rng.random::<f64>() < m / 2.0 {
+            let nudge =
+                ((rng.random::<f64>() - rng.random::<f64>()) * p.duration_mutation_span).trunc();
+            let d = (f64::from(gene.duration) + nudge).clamp(0.0, f64::from(p.max_duration));
+            gene.duration = d as u8;
+        }
+    }
+}
+
+/// Builds the next generation: the elites unchanged, then pairs of children
+/// of roulette-picked parents until the population is full.
+pub fn next_generation(
+    p: &GaParams,
+    population: &[Genome],
+    fitness: &[f64],
+    rng: &mut impl Rng,
+) -> Vec<Genome> {
+    let mut next: Vec<Genome> = ranking(fitness)
+        .into_iter()
+        .take(p.elites)
+        .map(|i| population[i].clone())
+        .collect();
+    let wheel = Wheel::new(fitness);
+    while next.len() < p.population {
+        let mum = &population[wheel.spin(rng)];
+        let dad = &population[wheel.spin(rng)];
+        let (mut a, mut b) = crossover(p, mum, dad, rng);
+        mutate(p, &mut a, rng);
+        mutate(p, &mut b, rng);
+        next.push(a);
+        if next.len() < p.population {
+            next.push(b);
+        }
+    }
+    next
+}
+
+#[cfg(test)]
+mod tests;

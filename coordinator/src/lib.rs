@@ -1,0 +1,13 @@
+//! Everything that evolves and orchestrates.
+//!
+//! - [`config`]: the run configuration and its validation.
+//! - [`ga`]: the GA's operators.
+//! - [`trial`]: one trial, generation by generation, with restarts.
+//! - [`evaluator`]: who flies a generation; in-process over threads here.
+//! - [`report`]: what a run writes: JSON lines, `best.json`, the summary.
+
+pub mod config;
+pub mod evaluator;
+pub mod ga;
+pub mod report;
+pub mod trial;

@@ -1,0 +1,14 @@
+//! The vocabulary shared by the coordinator and the workers.
+//!
+//! Everything here is plain data: genes and genomes, the environment a
+//! flight happens in, the parameters of the fitness and the guided pass, and
+//! the keys of the random streams. A worker receives all of it with each job
+//! and keeps no state between jobs, so any worker can take any job.
+
+pub mod genome;
+pub mod params;
+pub mod stream;
+
+pub use genome::{format_genome, parse_genome, Action, Gene, GenomeError};
+pub use params::{Env, GuideParams, Method, Scoring, World};
+pub use stream::StreamKey;

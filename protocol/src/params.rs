@@ -1,0 +1,156 @@
+//! The constants of the model (SPEC §1, §2 and §4), with the paper's
+//! defaults. Each struct is plain data and deserialises from a TOML section
+//! in which every key is optional and unknown keys are errors.
+
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// The world and the lander's physics (SPEC §1).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct World {
+    /// Width `W` in pixels; x wraps at both edges.
+    pub width: f64,
+    /// Height `H` in pixels.
+    pub height: f64,
+    /// Gravity, per second per tick: `vy -= gravity / ticks_per_second` every tick.
+    pub gravity: f64,
+    /// Thrust force; acceleration per tick is `(thrust / ticks_per_second) / mass`.
+    pub thrust: f64,
+    pub mass: f64,
+    pub ticks_per_second: f64,
+    /// Radians turned by one rotate tick.
+    pub rotation_step: f64,
+    /// The lander starts at `y = height - start_drop`.
+    pub start_drop: f64,
+    /// The touchdown line: a flight ends when any hull point is below it.
+    pub ground_y: f64,
+    /// Model units to pixels for the hull.
+    pub hull_scale: f64,
+    /// `pad_x` is drawn from `[pad_margin, width - pad_margin)`.
+    pub pad_margin: f64,
+    /// A flight still airborne after this many ticks ends as a crash.
+    pub max_ticks: u32,
+}
+
+impl Default for World {
+    fn default() -> Self {
+        World {
+            width: 400.0,
+            height: 300.0,
+            gravity: 1.63,
+            thrust: 350.0,
+            mass: 100.0,
+            ticks_per_second: 60.0,
+            rotation_step: 0.05,
+            start_drop: 50.0,
+            ground_y: 55.0,
+            hull_scale: 10.0,
+            pad_margin: 50.0,
+            max_ticks: 100_000,
+        }
+    }
+}
+
+impl World {
+    /// Velocity change per thrust tick, `a = (350/60)/100` by default.
+    pub fn thrust_per_tick(&self) -> f64 {
+        (self.thrust / self.ticks_per_second) / self.mass
+    }
+
+    /// Downward velocity change per tick, `1.63/60` by default.
+    pub fn gravity_per_tick(&self) -> f64 {
+        self.gravity / self.ticks_per_second
+    }
+
+    pub fn start_y(&self) -> f64 {
+        self.height - self.start_drop
+    }
+}
+
+/// The fitness of eq. 1 and the safe-landing thresholds (SPEC §2).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Scoring {
+    pub w1: f64,
+    pub w2: f64,
+    pub w3: f64,
+    /// The fitness of a safe landing.
+    pub big_number: f64,
+    pub safe_distance: f64,
+    pub safe_speed: f64,
+    pub safe_rotation: f64,
+}
+
+impl Default for Scoring {
+    fn default() -> Self {
+        Scoring {
+            w1: 1.0,
+            w2: 400.0,
+            w3: 4.0,
+            big_number: 9_999_999.0,
+            safe_distance: 10.0,
+            safe_speed: 0.5,
+            safe_rotation: PI / 16.0,
+        }
+    }
+}
+
+/// The guided evolve pass: ε and the reinforcement function R of eq. 3
+/// (SPEC §4).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GuideParams {
+    /// Probability of keeping a gene's action when R prefers another.
+    pub epsilon: f64,
+    pub w_y: f64,
+    pub h1: f64,
+    pub r: f64,
+    pub h2: f64,
+    pub w_t: f64,
+}
+
+impl Default for GuideParams {
+    fn default() -> Self {
+        GuideParams {
+            epsilon: 0.1,
+            w_y: 3.0,
+            h1: 100.0,
+            r: 1.7,
+            h2: 30.0,
+            w_t: 6.0,
+        }
+    }
+}
+
+/// One flight's environment: the world, the start column and the pad.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Env {
+    pub world: World,
+    pub scoring: Scoring,
+    pub x0: f64,
+    pub pad_x: f64,
+}
+
+/// How a population is evaluated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// The general GA: fly and score.
+    Ga,
+    /// The guided GA: the evolve pass, then fly and score.
+    Guided,
+}
+
+impl Method {
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Ga => "ga",
+            Method::Guided => "guided",
+        }
+    }
+}

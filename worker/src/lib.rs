@@ -1,0 +1,21 @@
+//! Everything that flies landers.
+//!
+//! - [`sim`]: the physics and the hull impact test (SPEC §1), [`fly`].
+//! - [`score`]: the fitness of eq. 1 and the reinforcement function R of eq. 3.
+//! - [`guide`]: the guided evolve pass (SPEC §4).
+//! - [`evaluate`]: one genome under a method, as a worker serves it.
+//! - [`reference`]: a deliberately plain simulation, the baseline that the
+//!   fast one must match bit for bit.
+//!
+//! All of it is pure: no locks, no I/O, no allocation in the flight loop.
+
+pub mod evaluate;
+pub mod guide;
+pub mod reference;
+pub mod score;
+pub mod sim;
+
+pub use evaluate::{evaluate, Evaluation};
+pub use guide::guide;
+pub use lander_protocol::Method;
+pub use sim::{fly, fly_traced, Lander, Outcome, State, HULL};

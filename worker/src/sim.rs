@@ -1,0 +1,325 @@
+//! The lander simulation (SPEC §1): one tick of physics, the asymmetric
+//! rotation wrap, the x wrap and the 30-point hull impact test.
+//!
+//! Speed comes from two exact shortcuts, both checked against
+//! [`crate::reference`] bit for bit:
+//! - `sin`, `cos` and the hull's lowest point depend only on `rot`, which
+//!   changes only on rotate ticks. They are recomputed lazily, on the first
+//!   thrust tick or ground check after a rotation, never per tick.
+//! - The hull cannot reach the touchdown line while the centre is higher
+//!   than the hull's radius above it, so up there the test is one compare.
+//!   Because IEEE addition is monotonic, `y + min(offsets)` equals
+//!   `min(y + offset)` exactly.
+
+use crate::score;
+use lander_protocol::{Action, Env, Gene};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::{PI, TAU};
+
+/// The hull in model units, in the original's order.
+pub const HULL: [(f64, f64); 30] = [
+    (-1.0, 0.0),
+    (1.0, 0.0),
+    (1.0, -0.5),
+    (-1.0, -0.5),
+    (-0.5, 0.0),
+    (-1.0, 0.3),
+    (-1.0, 0.7),
+    (-0.5, 1.0),
+    (0.5, 1.0),
+    (1.0, 0.7),
+    (1.0, 0.3),
+    (0.5, 0.0),
+    (-1.0, -0.4),
+    (-1.3, -0.8),
+    (-1.3, -1.2),
+    (-1.5, -1.2),
+    (-1.1, -1.2),
+    (-0.9, -0.5),
+    (-1.3, -0.8),
+    (1.0, -0.4),
+    (1.3, -0.8),
+    (1.3, -1.2),
+    (1.5, -1.2),
+    (1.1, -1.2),
+    (0.9, -0.5),
+    (1.3, -0.8),
+    (-0.2, -0.5),
+    (-0.3, -0.8),
+    (0.3, -0.8),
+    (0.2, -0.5),
+];
+
+/// The lander's kinematic state.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct State {
+    pub x: f64,
+    pub y: f64,
+    pub vx: f64,
+    pub vy: f64,
+    pub rot: f64,
+}
+
+impl State {
+    pub fn speed(&self) -> f64 {
+        (self.vx * self.vx + self.vy * self.vy).sqrt()
+    }
+}
+
+/// How a flight ended.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Outcome {
+    pub state: State,
+    /// Ticks flown, including the drift after the genes ran out.
+    pub ticks: u32,
+    /// Decoded ticks flown: `min(ticks, Σ durations)`.
+    pub n: u32,
+    /// False when the flight hit the tick guard instead of the ground.
+    pub touched_down: bool,
+    pub safe: bool,
+    pub fitness: f64,
+}
+
+/// A lander in flight, with the constants of its world unpacked.
+#[derive(Clone, Copy, Debug)]
+pub struct Lander {
+    pub state: State,
+    pub ticks: u32,
+    touched_down: bool,
+    // Cached functions of `state.rot`, valid unless `stale`.
+    stale: bool,
+    sin: f64,
+    cos: f64,
+    hull_low: f64,
+    // Constants of the world.
+    width: f64,
+    ground_y: f64,
+    /// Above this centre height no hull point can be below the ground.
+    clear_y: f64,
+    hull_scale: f64,
+    rotation_step: f64,
+    thrust: f64,
+    gravity: f64,
+    max_ticks: u32,
+}
+
+impl Lander {
+    /// A lander at the start of a flight: upside down, at rest, at
+    /// `(x0, H - 50)`.
+    pub fn new(env: &Env) -> Lander {
+        let w = &env.world;
+        let reach = w.hull_scale.abs() * hull_radius();
+        Lander {
+            state: State {
+                x: env.x0,
+                y: w.start_y(),
+                vx: 0.0,
+                vy: 0.0,
+                rot: PI,
+            },
+            ticks: 0,
+            touched_down: false,
+            stale: true,
+            sin: 0.0,
+            cos: 0.0,
+            hull_low: 0.0,
+            width: w.width,
+            ground_y: w.ground_y,
+            clear_y: w.ground_y + reach * 1.001 + 1e-9,
+            hull_scale: w.hull_scale,
+            rotation_step: w.rotation_step,
+            thrust: w.thrust_per_tick(),
+            gravity: w.gravity_per_tick(),
+            max_ticks: w.max_ticks,
+        }
+    }
+
+    /// A lander in `state` with `ticks` already flown, for tests and tools
+    /// that start mid-flight.
+    pub fn with_state(env: &Env, state: State, ticks: u32) -> Lander {
+        Lander {
+            state,
+            ticks,
+            ..Lander::new(env)
+        }
+    }
+
+    pub fn touched_down(&self) -> bool {
+        self.touched_down
+    }
+
+    /// True once the lander is down or has used up its ticks.
+    pub fn ended(&self) -> bool {
+        self.touched_down || self.ticks >= self.max_ticks
+    }
+
+    /// Flies up to `ticks` ticks of `action`, stopping early at touchdown
+    /// or at the tick guard. Returns the ticks actually flown.
+    pub fn run(&mut self, action: Action, ticks: u32) -> u32 {
+        if self.touched_down {
+            return 0;
+        }
+        let ticks = ticks.min(self.max_ticks - self.ticks);
+        match action {
+            Action::RotateLeft => self.repeat(ticks, Self::rotate_left),
+            Action::RotateRight => self.repeat(ticks, Self::rotate_right),
+            Action::Thrust => self.repeat(ticks, Self::thrust),
+            Action::Drift => self.repeat(ticks, |_| {}),
+        }
+    }
+
+    /// Drifts until touchdown or the tick guard.
+    pub fn drift_to_end(&mut self) {
+        if !self.touched_down {
+            self.repeat(self.max_ticks - self.ticks, |_| {});
+        }
+    }
+
+    /// Flies every gene in order, stopping at touchdown.
+    pub fn run_genes(&mut self, genes: &[Gene]) {
+        for gene in genes {
+            self.run(gene.action, u32::from(gene.duration));
+            if self.ended() {
+                break;
+            }
+        }
+    }
+
+    /// Scores the flight as it stands, with `n` decoded ticks flown.
+    pub fn outcome(&self, env: &Env, n: u32) -> Outcome {
+        let safe = self.touched_down && score::is_safe(env, &self.state);
+        Outcome {
+            state: self.state,
+            ticks: self.ticks,
+            n,
+            touched_down: self.touched_down,
+            safe,
+            fitness: score::fitness(env, &self.state, n, safe),
+        }
+    }
+
+    #[inline(always)]
+    fn repeat(&mut self, ticks: u32, act: impl Fn(&mut Self)) -> u32 {
+        for flown in 1..=ticks {
+            act(self);
+            if self.finish_tick() {
+                return flown;
+            }
+        }
+        ticks
+    }
+
+    #[inline(always)]
+    fn rotate_left(&mut self) {
+        self.state.rot -= self.rotation_step;
+        if self.state.rot < -PI {
+            self.state.rot += TAU;
+        }
+        self.stale = true;
+    }
+
+    #[inline(always)]
+    fn rotate_right(&mut self) {
+        self.state.rot += self.rotation_step;
+        if self.state.rot > TAU {
+            self.state.rot -= TAU;
+        }
+        self.stale = true;
+    }
+
+    #[inline(always)]
+    fn thrust(&mut self) {
+        self.refresh();
+        self.state.vx += self.thrust * self.sin;
+        self.state.vy += self.thrust * self.cos;
+    }
+
+    /// Gravity, move, wrap and the impact test. Returns true at touchdown.
+    #[inline(always)]
+    fn finish_tick(&mut self) -> bool {
+        let s = &mut self.state;
+        s.vy += -self.gravity;
+        s.x += s.vx;
+        s.y += s.vy;
+        if s.x > self.width {
+            s.x = 0.0;
+        }
+        if s.x < 0.0 {
+            s.x = self.width;
+        }
+        self.ticks += 1;
+        if self.state.y < self.clear_y {
+            self.refresh();
+            self.touched_down = self.state.y + self.hull_low < self.ground_y;
+        }
+        self.touched_down
+    }
+
+    #[inline(always)]
+    fn refresh(&mut self) {
+        if self.stale {
+            self.recompute_rotation();
+        }
+    }
+
+    #[cold]
+    fn recompute_rotation(&mut self) {
+        let (sin, cos) = self.state.rot.sin_cos();
+        self.sin = sin;
+        self.cos = cos;
+        self.hull_low = hull_offsets_y(self.hull_scale, sin, cos).fold(f64::INFINITY, f64::min);
+        self.stale = false;
+    }
+}
+
+/// The y offset of each hull point from the centre at a rotation given by
+/// its sine and cosine, in the SPEC's exact expression.
+pub fn hull_offsets_y(scale: f64, sin: f64, cos: f64) -> impl Iterator<Item = f64> {
+    HULL.iter()
+        .map(move |&(px, py)| scale * (-px * sin + py * cos))
+}
+
+/// The largest distance of a hull point from the centre, in model units.
+fn hull_radius() -> f64 {
+    HULL.iter()
+        .map(|&(px, py)| (px * px + py * py).sqrt())
+        .fold(0.0, f64::max)
+}
+
+/// Flies a genome from the start state to touchdown and scores it.
+pub fn fly(env: &Env, genes: &[Gene]) -> Outcome {
+    let mut lander = Lander::new(env);
+    lander.run_genes(genes);
+    let n = lander.ticks;
+    lander.drift_to_end();
+    lander.outcome(env, n)
+}
+
+/// Flies like [`fly`], one tick at a time, showing `visit` the tick number,
+/// the action and the state after each tick.
+pub fn fly_traced(
+    env: &Env,
+    genes: &[Gene],
+    mut visit: impl FnMut(u32, Action, &State),
+) -> Outcome {
+    let mut lander = Lander::new(env);
+    let decoded = genes
+        .iter()
+        .flat_map(|g| std::iter::repeat_n(g.action, usize::from(g.duration)));
+    let mut n = None;
+    for (i, action) in decoded.map(Some).chain(std::iter::repeat(None)).enumerate() {
+        if lander.ended() {
+            break;
+        }
+        let action = action.unwrap_or_else(|| {
+            n.get_or_insert(i as u32);
+            Action::Drift
+        });
+        lander.run(action, 1);
+        visit(lander.ticks, action, &lander.state);
+    }
+    lander.outcome(env, n.unwrap_or(lander.ticks))
+}
+
+#[cfg(test)]
+mod tests;
