@@ -1,1 +1,89 @@
-fn main() {}
+//! Simulated ticks per second of `fly` against the straightforward
+//! reference, and the cost of one guided generation of 100 genomes.
+//!
+//! `cargo bench -p lander-worker --bench flight`
+
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
+use lander_protocol::{Action, Env, Gene, GuideParams, Method, Scoring, StreamKey, World};
+use lander_worker::{evaluate, fly, reference};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::hint::black_box;
+
+/// 100 random genomes of the paper's shape, each with its own ground.
+fn workload() -> Vec<(Env, Vec<Gene>)> {
+    let mut rng = ChaCha8Rng::seed_from_u64(42);
+    (0..100)
+        .map(|_| {
+            let env = Env {
+                world: World::default(),
+                scoring: Scoring::default(),
+                x0: rng.random_range(0.0..400.0),
+                pad_x: rng.random_range(50.0..350.0),
+            };
+            let genes = (0..50)
+                .map(|_| {
+                    Gene::new(
+                        Action::ALL[rng.random_range(0..4)],
+                        rng.random_range(1..=30),
+                    )
+                })
+                .collect();
+            (env, genes)
+        })
+        .collect()
+}
+
+fn flights(c: &mut Criterion) {
+    let work = workload();
+    let ticks: u64 = work.iter().map(|(e, g)| u64::from(fly(e, g).ticks)).sum();
+    for (e, g) in &work {
+        assert_eq!(
+            fly(e, g),
+            reference::fly(e, g),
+            "fast and reference flights differ"
+        );
+    }
+    let mut group = c.benchmark_group("fly");
+    group.throughput(Throughput::Elements(ticks));
+    group.bench_function("fast", |b| {
+        b.iter(|| {
+            for (e, g) in &work {
+                black_box(fly(black_box(e), black_box(g)));
+            }
+        })
+    });
+    group.bench_function("reference", |b| {
+        b.iter(|| {
+            for (e, g) in &work {
+                black_box(reference::fly(black_box(e), black_box(g)));
+            }
+        })
+    });
+    group.finish();
+}
+
+fn guided_generation(c: &mut Criterion) {
+    let work = workload();
+    let params = GuideParams::default();
+    let key = StreamKey::new(1, 1, 0, 1);
+    let mut group = c.benchmark_group("generation");
+    group.throughput(Throughput::Elements(work.len() as u64));
+    for method in [Method::Guided, Method::Ga] {
+        group.bench_function(method.name(), |b| {
+            b.iter_batched_ref(
+                || work.clone(),
+                |batch| {
+                    for (i, (e, g)) in batch.iter_mut().enumerate() {
+                        black_box(evaluate(e, method, &params, key, i as u64, g));
+                    }
+                },
+                BatchSize::SmallInput,
+            )
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, flights, guided_generation);
+criterion_main!(benches);

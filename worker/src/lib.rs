@@ -18,4 +18,4 @@ pub mod sim;
 pub use evaluate::{evaluate, Evaluation};
 pub use guide::guide;
 pub use lander_protocol::Method;
-pub use sim::{fly, fly_traced, Lander, Outcome, State, HULL};
+pub use sim::{fly, fly_traced, Lander, Outcome, State, HULL, HULL_RADIUS};

@@ -1,14 +1,17 @@
 //! The lander simulation (SPEC §1): one tick of physics, the asymmetric
 //! rotation wrap, the x wrap and the 30-point hull impact test.
 //!
-//! Speed comes from two exact shortcuts, both checked against
+//! Speed comes from exact shortcuts, all checked against
 //! [`crate::reference`] bit for bit:
 //! - `sin`, `cos` and the hull's lowest point depend only on `rot`, which
-//!   changes only on rotate ticks. They are recomputed lazily, on the first
-//!   thrust tick or ground check after a rotation, never per tick.
+//!   changes only on rotate ticks. They are recomputed lazily, when a thrust
+//!   tick or a ground check needs them, never per tick.
 //! - The hull cannot reach the touchdown line while the centre is higher
 //!   than the hull's radius above it, so up there the test is one compare.
-//!   Because IEEE addition is monotonic, `y + min(offsets)` equals
+//! - Near the ground, a lowest point known at one rotation bounds it at
+//!   another: a point at radius `r` moves at most `r·|Δrot|`. The exact
+//!   minimum is recomputed only when that bound cannot rule touchdown out.
+//! - Because IEEE addition is monotonic, `y + min(offsets)` equals
 //!   `min(y + offset)` exactly.
 
 use crate::score;
@@ -86,11 +89,16 @@ pub struct Lander {
     pub state: State,
     pub ticks: u32,
     touched_down: bool,
-    // Cached functions of `state.rot`, valid unless `stale`.
-    stale: bool,
+    // `sin` and `cos` of `trig_rot`; NaN means never computed.
+    trig_rot: f64,
     sin: f64,
     cos: f64,
+    // The lowest hull point's offset from the centre at `hull_rot`.
+    hull_rot: f64,
     hull_low: f64,
+    /// The hull's radius in pixels: no point moves faster than this per
+    /// radian of rotation.
+    reach: f64,
     // Constants of the world.
     width: f64,
     ground_y: f64,
@@ -108,7 +116,7 @@ impl Lander {
     /// `(x0, H - 50)`.
     pub fn new(env: &Env) -> Lander {
         let w = &env.world;
-        let reach = w.hull_scale.abs() * hull_radius();
+        let reach = w.hull_scale.abs() * HULL_RADIUS;
         Lander {
             state: State {
                 x: env.x0,
@@ -119,10 +127,12 @@ impl Lander {
             },
             ticks: 0,
             touched_down: false,
-            stale: true,
+            trig_rot: f64::NAN,
             sin: 0.0,
             cos: 0.0,
+            hull_rot: f64::NAN,
             hull_low: 0.0,
+            reach,
             width: w.width,
             ground_y: w.ground_y,
             clear_y: w.ground_y + reach * 1.001 + 1e-9,
@@ -215,7 +225,6 @@ impl Lander {
         if self.state.rot < -PI {
             self.state.rot += TAU;
         }
-        self.stale = true;
     }
 
     #[inline(always)]
@@ -224,12 +233,11 @@ impl Lander {
         if self.state.rot > TAU {
             self.state.rot -= TAU;
         }
-        self.stale = true;
     }
 
     #[inline(always)]
     fn thrust(&mut self) {
-        self.refresh();
+        self.refresh_trig();
         self.state.vx += self.thrust * self.sin;
         self.state.vy += self.thrust * self.cos;
     }
@@ -249,27 +257,47 @@ impl Lander {
         }
         self.ticks += 1;
         if self.state.y < self.clear_y {
-            self.refresh();
-            self.touched_down = self.state.y + self.hull_low < self.ground_y;
+            self.touched_down = self.hull_below_ground();
         }
         self.touched_down
     }
 
+    /// The impact test near the ground.
     #[inline(always)]
-    fn refresh(&mut self) {
-        if self.stale {
-            self.recompute_rotation();
+    fn hull_below_ground(&mut self) -> bool {
+        let (y, rot) = (self.state.y, self.state.rot);
+        if rot != self.hull_rot {
+            // The margin dwarfs the rounding in the offsets; a NaN `hull_rot`
+            // fails the test and forces the exact path.
+            let lowest = self.hull_low - self.reach * (rot - self.hull_rot).abs() - 1e-9;
+            if y + lowest >= self.ground_y {
+                return false;
+            }
+            self.refresh_trig();
+            self.hull_low = lowest_offset(self.hull_scale, self.sin, self.cos);
+            self.hull_rot = rot;
         }
+        y + self.hull_low < self.ground_y
     }
 
-    #[cold]
-    fn recompute_rotation(&mut self) {
-        let (sin, cos) = self.state.rot.sin_cos();
-        self.sin = sin;
-        self.cos = cos;
-        self.hull_low = hull_offsets_y(self.hull_scale, sin, cos).fold(f64::INFINITY, f64::min);
-        self.stale = false;
+    #[inline(always)]
+    fn refresh_trig(&mut self) {
+        if self.state.rot != self.trig_rot {
+            (self.sin, self.cos) = self.state.rot.sin_cos();
+            self.trig_rot = self.state.rot;
+        }
     }
+}
+
+/// The lowest hull point's y offset from the centre.
+fn lowest_offset(scale: f64, sin: f64, cos: f64) -> f64 {
+    let mut low = f64::INFINITY;
+    for y in hull_offsets_y(scale, sin, cos) {
+        if y < low {
+            low = y;
+        }
+    }
+    low
 }
 
 /// The y offset of each hull point from the centre at a rotation given by
@@ -279,12 +307,9 @@ pub fn hull_offsets_y(scale: f64, sin: f64, cos: f64) -> impl Iterator<Item = f6
         .map(move |&(px, py)| scale * (-px * sin + py * cos))
 }
 
-/// The largest distance of a hull point from the centre, in model units.
-fn hull_radius() -> f64 {
-    HULL.iter()
-        .map(|&(px, py)| (px * px + py * py).sqrt())
-        .fold(0.0, f64::max)
-}
+/// The largest distance of a hull point from the centre, in model units:
+/// the foot tips at `(±1.5, −1.2)`.
+pub const HULL_RADIUS: f64 = 1.920_937_271_229_854_7;
 
 /// Flies a genome from the start state to touchdown and scores it.
 pub fn fly(env: &Env, genes: &[Gene]) -> Outcome {

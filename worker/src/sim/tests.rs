@@ -283,3 +283,35 @@ proptest! {
         prop_assert_eq!(last, Some(plain.state));
     }
 }
+
+#[test]
+fn hull_radius_is_the_farthest_hull_point() {
+    let farthest = HULL
+        .iter()
+        .map(|&(px, py)| (px * px + py * py).sqrt())
+        .fold(0.0, f64::max);
+    assert_eq!(HULL_RADIUS, farthest);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(3000))]
+
+    /// Spinning low over the ground is where the rotation bound works hardest.
+    #[test]
+    fn rotating_near_the_ground_matches_the_reference(
+        x in 0.0f64..400.0, y in 55.0f64..80.0, vy in -0.5f64..0.5, rot in -PI..TAU,
+        actions in proptest::collection::vec(0u8..2, 1..80),
+    ) {
+        let e = env(200.0, 100.0);
+        let mut fast = Lander::with_state(&e, state(x, y, 0.0, vy, rot), 0);
+        let mut slow = fast.state;
+        for a in actions {
+            let a = Action::from_index(a).unwrap();
+            fast.run(a, 1);
+            reference::tick(&e, &mut slow, a);
+            prop_assert_eq!(fast.state, slow);
+            prop_assert_eq!(fast.touched_down(), reference::touches_ground(&e, &slow));
+            if fast.touched_down() { break; }
+        }
+    }
+}

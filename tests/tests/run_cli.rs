@@ -1,0 +1,222 @@
+//! `lander run`, `fly` and `guide` as a user runs them.
+
+use lander_tests::{json_out, lander, stderr, without_wall_time};
+use std::fs;
+
+fn run_in(dir: &std::path::Path, extra: &[&str]) -> serde_json::Value {
+    let out = dir.to_str().unwrap();
+    let mut args = vec!["run", "--seed", "1", "--json", "--out", out];
+    args.extend_from_slice(extra);
+    json_out(&lander(&args))
+}
+
+#[test]
+fn guided_seed_1_lands_and_repeats_exactly() {
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let first = run_in(a.path(), &["--method", "guided"]);
+    assert_eq!(first["landed"], true);
+    assert_eq!(first["method"], "guided");
+    let keys: Vec<&str> = first
+        .as_object()
+        .unwrap()
+        .keys()
+        .map(String::as_str)
+        .collect();
+    assert_eq!(
+        keys,
+        [
+            "method",
+            "seed",
+            "trial",
+            "x0",
+            "pad_x",
+            "landed",
+            "generations",
+            "restarts",
+            "best_fitness",
+            "best_genome",
+            "wall_s"
+        ]
+    );
+    let second = run_in(b.path(), &["--method", "guided"]);
+    assert_eq!(without_wall_time(first.clone()), without_wall_time(second));
+    let log = |d: &tempfile::TempDir| fs::read(d.path().join("generations.jsonl")).unwrap();
+    assert_eq!(log(&a), log(&b));
+
+    // Every generation is a line; the last is the landing.
+    let text = String::from_utf8(log(&a)).unwrap();
+    let lines: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len() as u64, first["generations"].as_u64().unwrap());
+    assert_eq!(lines.last().unwrap()["best"], 9_999_999.0);
+    for key in ["index", "restart", "best", "mean", "evaluated", "ticks"] {
+        assert!(lines[0].get(key).is_some(), "generations.jsonl lacks {key}");
+    }
+
+    // best.json holds the landing genome, which `lander fly` confirms.
+    let best: serde_json::Value =
+        serde_json::from_slice(&fs::read(a.path().join("best.json")).unwrap()).unwrap();
+    assert_eq!(best["genome"], first["best_genome"]);
+    let flown = json_out(&lander(&[
+        "fly",
+        "--genome",
+        best["genome"].as_str().unwrap(),
+        "--x0",
+        &first["x0"].to_string(),
+        "--pad-x",
+        &first["pad_x"].to_string(),
+    ]));
+    assert_eq!(flown["safe"], true);
+    assert_eq!(flown["fitness"], 9_999_999.0);
+}
+
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    for method in ["ga", "guided"] {
+        let dirs: Vec<_> = (0..3).map(|_| tempfile::tempdir().unwrap()).collect();
+        let runs: Vec<_> = ["1", "2", "3"]
+            .iter()
+            .zip(&dirs)
+            .map(|(t, d)| {
+                run_in(
+                    d.path(),
+                    &[
+                        "--method",
+                        method,
+                        "--threads",
+                        t,
+                        "--max-generations",
+                        "30",
+                        "--max-restarts",
+                        "1",
+                    ],
+                )
+            })
+            .collect();
+        let logs: Vec<Vec<u8>> = dirs
+            .iter()
+            .map(|d| fs::read(d.path().join("generations.jsonl")).unwrap())
+            .collect();
+        for i in 1..3 {
+            assert_eq!(
+                without_wall_time(runs[0].clone()),
+                without_wall_time(runs[i].clone())
+            );
+            assert_eq!(logs[0], logs[i], "{method}: generations.jsonl differs");
+        }
+    }
+}
+
+#[test]
+fn bad_configuration_is_refused_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("bad.toml");
+    for (text, needle) in [
+        ("[ga]\npopulation = 0\n", "ga.population"),
+        ("[ga]\ncrossover_rate = 1.5\n", "ga.crossover_rate"),
+        ("[ga]\nmax_duration = 0\n", "ga.max_duration"),
+        ("[guided]\nepsilon = nan\n", "guided.epsilon"),
+        ("[ga]\npopsize = 10\n", "unknown field `popsize`"),
+        ("method = \"annealing\"\n", "unknown variant `annealing`"),
+        ("[ga\n", "bad.toml"),
+    ] {
+        fs::write(&cfg, text).unwrap();
+        let out = lander(&[
+            "run",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--out",
+            dir.path().to_str().unwrap(),
+        ]);
+        assert!(!out.status.success(), "{text:?} was accepted");
+        assert!(stderr(&out).contains(needle), "{text:?}: {}", stderr(&out));
+        assert!(!stderr(&out).contains("panicked"));
+    }
+    let missing = lander(&["run", "--config", "/nonexistent/cfg.toml"]);
+    assert!(!missing.status.success());
+    assert!(stderr(&missing).contains("/nonexistent/cfg.toml"));
+
+    let zero = lander(&[
+        "run",
+        "--population",
+        "0",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(!zero.status.success());
+    assert!(stderr(&zero).contains("ga.population"));
+    let method = lander(&["run", "--method", "annealing"]);
+    assert!(!method.status.success());
+    assert!(stderr(&method).contains("annealing"));
+}
+
+#[test]
+fn fly_prints_the_landing_and_traces_every_tick() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("trace.csv");
+    let out = json_out(&lander(&[
+        "fly",
+        "--genome",
+        "1:12,2:30,3:4",
+        "--x0",
+        "200",
+        "--pad-x",
+        "100",
+        "--trace",
+        trace.to_str().unwrap(),
+    ]));
+    for key in ["x", "y", "vx", "vy", "rot", "ticks", "n", "safe", "fitness"] {
+        assert!(out.get(key).is_some(), "fly output lacks {key}");
+    }
+    assert_eq!(out["n"], 46);
+    let csv = fs::read_to_string(&trace).unwrap();
+    let rows: Vec<&str> = csv.lines().collect();
+    assert_eq!(rows[0], "tick,action,x,y,vx,vy,rot");
+    assert_eq!(rows.len() as u64, 1 + out["ticks"].as_u64().unwrap());
+    assert!(rows[1].starts_with("1,1,200.0,"), "{}", rows[1]);
+
+    let bad = lander(&[
+        "fly", "--genome", "1:12,7:3", "--x0", "200", "--pad-x", "100",
+    ]);
+    assert!(!bad.status.success());
+    assert!(stderr(&bad).contains("gene 1"), "{}", stderr(&bad));
+}
+
+#[test]
+fn guide_with_epsilon_zero_is_deterministic_and_needs_no_seed() {
+    let args = [
+        "guide",
+        "--genome",
+        "3:20,3:20,3:20,2:10",
+        "--x0",
+        "150",
+        "--pad-x",
+        "160",
+        "--epsilon",
+        "0",
+    ];
+    let a = json_out(&lander(&args));
+    let b = json_out(&lander(&args));
+    assert_eq!(a, b);
+    let genome = a["genome"].as_str().unwrap();
+    let durations: Vec<&str> = genome
+        .split(',')
+        .map(|g| g.split(':').nth(1).unwrap())
+        .collect();
+    assert_eq!(durations, ["20", "20", "20", "10"]);
+    let bad = lander(&[
+        "guide",
+        "--genome",
+        "3:20",
+        "--x0",
+        "1",
+        "--pad-x",
+        "100",
+        "--epsilon",
+        "1.5",
+    ]);
+    assert!(!bad.status.success());
+    assert!(stderr(&bad).contains("guided.epsilon"), "{}", stderr(&bad));
+}
