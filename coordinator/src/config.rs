@@ -212,3 +212,14 @@ mod tests {
         assert!(err.contains("unknown variant `annealing`"), "{err}");
     }
 }
+
+#[cfg(test)]
+mod shipped {
+    use super::*;
+
+    #[test]
+    fn the_shipped_defaults_file_is_the_built_in_defaults() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments/defaults.toml");
+        assert_eq!(RunConfig::load(&path).unwrap(), RunConfig::default());
+    }
+}
