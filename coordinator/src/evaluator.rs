@@ -2,6 +2,7 @@
 //! and the transports; [`InProcess`] is the embedded default, a rayon pool.
 
 use crate::ga::Genome;
+use lander_protocol::iox::IpcError;
 use lander_protocol::{Env, GuideParams, Method, StreamKey};
 use lander_worker::{evaluate, Evaluation};
 use rayon::prelude::*;
@@ -13,6 +14,8 @@ pub struct Batch<'a> {
     pub method: Method,
     pub guide: GuideParams,
     pub key: StreamKey,
+    /// The largest duration a gene may have.
+    pub max_duration: u8,
     /// Rewritten in place by the guided pass.
     pub genomes: &'a mut [Genome],
 }
@@ -21,6 +24,14 @@ pub struct Batch<'a> {
 pub enum EvalError {
     #[error("cannot start {threads} evaluation threads: {reason}")]
     Threads { threads: usize, reason: String },
+    #[error(transparent)]
+    Ipc(#[from] IpcError),
+    #[error("cannot start the worker {exe}: {reason} (build it with `cargo build --release -p lander-worker`)")]
+    Spawn { exe: String, reason: String },
+    #[error("every worker died and the {respawns} respawns allowed are used up")]
+    NoWorkers { respawns: usize },
+    #[error("the genomes of a generation differ in length")]
+    Ragged,
 }
 
 /// Flies a batch and returns one evaluation per genome, in order.
@@ -60,6 +71,7 @@ impl Evaluator for InProcess {
             guide,
             key,
             genomes,
+            ..
         } = batch;
         Ok(self.pool.install(|| {
             genomes

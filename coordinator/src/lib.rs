@@ -3,11 +3,13 @@
 //! - [`config`]: the run configuration and its validation.
 //! - [`ga`]: the GA's operators.
 //! - [`trial`]: one trial, generation by generation, with restarts.
-//! - [`evaluator`]: who flies a generation; in-process over threads here.
+//! - [`evaluator`]: who flies a generation; in-process over threads.
+//! - [`pool`]: the evaluator pool over iceoryx2 worker processes.
 //! - [`report`]: what a run writes: JSON lines, `best.json`, the summary.
 
 pub mod config;
 pub mod evaluator;
 pub mod ga;
+pub mod pool;
 pub mod report;
 pub mod trial;

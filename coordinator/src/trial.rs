@@ -130,6 +130,7 @@ fn run_attempt(
             method: cfg.method,
             guide: cfg.guided,
             key: key(generation),
+            max_duration: cfg.ga.max_duration,
             genomes: &mut population,
         })?;
         *index += 1;

@@ -4,11 +4,18 @@
 //! flight happens in, the parameters of the fitness and the guided pass, and
 //! the keys of the random streams. A worker receives all of it with each job
 //! and keeps no state between jobs, so any worker can take any job.
+//!
+//! [`wire`] says how jobs and results are laid out between processes and
+//! checks what arrives; [`iox`] names and opens the iceoryx2 services.
 
 pub mod genome;
+pub mod iox;
+pub mod outcome;
 pub mod params;
 pub mod stream;
+pub mod wire;
 
 pub use genome::{format_genome, parse_genome, Action, Gene, GenomeError};
+pub use outcome::{Evaluation, Outcome, State};
 pub use params::{Env, GuideParams, Method, Scoring, World};
 pub use stream::StreamKey;

@@ -2,12 +2,14 @@
 //! defaults. Each struct is plain data and deserialises from a TOML section
 //! in which every key is optional and unknown keys are errors.
 
+use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
 /// The world and the lander's physics (SPEC §1).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ZeroCopySend)]
+#[type_name("lander::World")]
 #[serde(default, deny_unknown_fields)]
 pub struct World {
     /// Width `W` in pixels; x wraps at both edges.
@@ -71,7 +73,8 @@ impl World {
 
 /// The fitness of eq. 1 and the safe-landing thresholds (SPEC §2).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ZeroCopySend)]
+#[type_name("lander::Scoring")]
 #[serde(default, deny_unknown_fields)]
 pub struct Scoring {
     pub w1: f64,
@@ -101,7 +104,8 @@ impl Default for Scoring {
 /// The guided evolve pass: ε and the reinforcement function R of eq. 3
 /// (SPEC §4).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ZeroCopySend)]
+#[type_name("lander::GuideParams")]
 #[serde(default, deny_unknown_fields)]
 pub struct GuideParams {
     /// Probability of keeping a gene's action when R prefers another.
@@ -128,7 +132,8 @@ impl Default for GuideParams {
 
 /// One flight's environment: the world, the start column and the pad.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, ZeroCopySend)]
+#[type_name("lander::Env")]
 pub struct Env {
     pub world: World,
     pub scoring: Scoring,
@@ -147,6 +152,20 @@ pub enum Method {
 }
 
 impl Method {
+    /// The method's number on the wire.
+    pub fn code(self) -> u32 {
+        match self {
+            Method::Ga => 0,
+            Method::Guided => 1,
+        }
+    }
+
+    pub fn from_code(code: u32) -> Option<Method> {
+        [Method::Ga, Method::Guided]
+            .into_iter()
+            .find(|m| m.code() == code)
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Method::Ga => "ga",

@@ -66,3 +66,128 @@ pub fn without_wall_time(mut v: Value) -> Value {
 pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
+
+/// An isolated iceoryx2 namespace for one test: its own file prefix and
+/// root folder, removed afterwards.
+pub struct Iox {
+    pub prefix: String,
+    root: tempfile::TempDir,
+}
+
+impl Iox {
+    pub fn new(test: &str) -> Iox {
+        let prefix = format!("lander_test_{test}_{}_", std::process::id());
+        let root = tempfile::tempdir().expect("a temporary folder");
+        Iox { prefix, root }
+    }
+
+    /// A command for `bin` that uses this namespace.
+    pub fn command(&self, bin: &str) -> Command {
+        let mut cmd = Command::new(binary(bin));
+        cmd.env("LANDER_IOX2_PREFIX", &self.prefix)
+            .env("LANDER_IOX2_ROOT", self.root.path());
+        cmd
+    }
+
+    /// `lander` with `args` in this namespace, run to completion.
+    pub fn lander(&self, args: &[&str]) -> Output {
+        self.command("lander")
+            .args(args)
+            .output()
+            .expect("lander starts")
+    }
+
+    /// This namespace's files in /dev/shm, except the one management file
+    /// iceoryx2 keeps per prefix for good.
+    pub fn shm_files(&self) -> Vec<String> {
+        let Ok(dir) = std::fs::read_dir("/dev/shm") else {
+            return Vec::new();
+        };
+        dir.filter_map(|e| e.ok()?.file_name().into_string().ok())
+            .filter(|n| n.starts_with(&self.prefix) && !n.ends_with("global_mgmt"))
+            .collect()
+    }
+
+    /// Files under this namespace's root, where iceoryx2 keeps services,
+    /// node records and event sockets.
+    pub fn root_files(&self) -> Vec<PathBuf> {
+        fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+            for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+                let path = entry.path();
+                if path.is_dir() {
+                    walk(&path, out);
+                } else {
+                    out.push(path);
+                }
+            }
+        }
+        let mut out = Vec::new();
+        walk(self.root.path(), &mut out);
+        out
+    }
+}
+
+impl Drop for Iox {
+    fn drop(&mut self) {
+        if let Ok(dir) = std::fs::read_dir("/dev/shm") {
+            for entry in dir.flatten() {
+                if entry
+                    .file_name()
+                    .to_string_lossy()
+                    .starts_with(&self.prefix)
+                {
+                    let _ = std::fs::remove_file(entry.path());
+                }
+            }
+        }
+    }
+}
+
+/// The pids of `parent`'s children that run `name`.
+pub fn children_of(parent: u32, name: &str) -> Vec<u32> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir("/proc").into_iter().flatten().flatten() {
+        let Ok(pid) = entry.file_name().to_string_lossy().parse::<u32>() else {
+            continue;
+        };
+        let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+            continue;
+        };
+        // pid (comm) state ppid ...; comm may hold spaces, so split after ')'.
+        let (Some(open), Some(close)) = (stat.find('('), stat.rfind(')')) else {
+            continue;
+        };
+        let comm = &stat[open + 1..close];
+        let ppid = stat[close + 1..].split_whitespace().nth(1);
+        if comm.starts_with(&name[..name.len().min(15)]) && ppid == Some(&parent.to_string()) {
+            out.push(pid);
+        }
+    }
+    out
+}
+
+/// Sends `signal` (e.g. "KILL", "TERM", "STOP") to `pid`.
+pub fn signal(pid: u32, signal: &str) {
+    let status = Command::new("kill")
+        .args([&format!("-{signal}"), &pid.to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(status.success(), "kill -{signal} {pid} failed");
+}
+
+/// Lines in a file so far, 0 if it does not exist yet.
+pub fn lines_in(path: &Path) -> usize {
+    std::fs::read_to_string(path).map_or(0, |t| t.lines().count())
+}
+
+/// Polls `ready` every 10 ms for up to `secs` seconds.
+pub fn wait_until(secs: u64, mut ready: impl FnMut() -> bool) -> bool {
+    let end = std::time::Instant::now() + std::time::Duration::from_secs(secs);
+    while std::time::Instant::now() < end {
+        if ready() {
+            return true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    false
+}

@@ -1,18 +1,10 @@
 //! One genome under one method: what a worker does for each genome of a job.
 
 use crate::guide::guide_in_place;
-use crate::sim::{fly, Outcome};
+use crate::sim::fly;
 use lander_protocol::stream::streams;
-use lander_protocol::{Env, Gene, GuideParams, Method, StreamKey};
-
-/// The result for one genome.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Evaluation {
-    pub outcome: Outcome,
-    /// Every tick simulated for this genome: the guided pass's look-aheads
-    /// and the flight itself.
-    pub simulated_ticks: u64,
-}
+use lander_protocol::wire::{ChunkResult, Job};
+use lander_protocol::{Env, Evaluation, Gene, GuideParams, Method, StreamKey};
 
 /// Evaluates `genes` in place. Under `Guided` the genes are first improved
 /// by the evolve pass, whose draws come from the stream of
@@ -44,5 +36,26 @@ pub fn evaluate(
                 simulated_ticks: looked_ahead + u64::from(outcome.ticks - n),
             }
         }
+    }
+}
+
+/// Evaluates every genome of a checked job, as a worker does.
+pub fn run_job(job: &Job) -> ChunkResult {
+    let mut genes = job.genes.clone();
+    let evaluations = genes
+        .chunks_mut(job.genome_length)
+        .enumerate()
+        .map(|(i, g)| {
+            let index = job.first_index + i as u64;
+            evaluate(&job.env, job.method, &job.guide, job.key, index, g)
+        })
+        .collect();
+    let actions = match job.method {
+        Method::Guided => genes.iter().map(|g| g.action.index()).collect(),
+        Method::Ga => Vec::new(),
+    };
+    ChunkResult {
+        evaluations,
+        actions,
     }
 }

@@ -6,16 +6,18 @@
 //! - [`evaluate`]: one genome under a method, as a worker serves it.
 //! - [`reference`]: a deliberately plain simulation, the baseline that the
 //!   fast one must match bit for bit.
+//! - [`serve`]: the worker process's loop, serving jobs over iceoryx2.
 //!
-//! All of it is pure: no locks, no I/O, no allocation in the flight loop.
+//! All but `serve` is pure: no locks, no I/O, no allocation in the flight loop.
 
 pub mod evaluate;
 pub mod guide;
 pub mod reference;
 pub mod score;
+pub mod serve;
 pub mod sim;
 
-pub use evaluate::{evaluate, Evaluation};
+pub use evaluate::{evaluate, run_job};
 pub use guide::guide;
-pub use lander_protocol::Method;
-pub use sim::{fly, fly_traced, Lander, Outcome, State, HULL, HULL_RADIUS};
+pub use lander_protocol::{Evaluation, Method, Outcome, State};
+pub use sim::{fly, fly_traced, Lander, HULL, HULL_RADIUS};

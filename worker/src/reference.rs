@@ -5,8 +5,9 @@
 //! [`crate::sim`] to, bit for bit. Nothing else should call it.
 
 use crate::score;
-use crate::sim::{Outcome, State, HULL};
+use crate::sim::HULL;
 use lander_protocol::{Action, Env, Gene};
+use lander_protocol::{Outcome, State};
 use std::f64::consts::{PI, TAU};
 
 /// Flies `genes` then drifts to touchdown, like [`crate::fly`].

@@ -1,7 +1,7 @@
 //! The fitness of a finished flight (eq. 1, SPEC §2) and the reinforcement
 //! function R that scores a state in mid-air (eq. 3, SPEC §4).
 
-use crate::sim::State;
+use lander_protocol::State;
 use lander_protocol::{Env, GuideParams};
 
 /// `1 / (|rot| + 1)`, shared by eq. 1 and eq. 3.

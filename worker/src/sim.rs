@@ -15,8 +15,7 @@
 //!   `min(y + offset)` exactly.
 
 use crate::score;
-use lander_protocol::{Action, Env, Gene};
-use serde::{Deserialize, Serialize};
+use lander_protocol::{Action, Env, Gene, Outcome, State};
 use std::f64::consts::{PI, TAU};
 
 /// The hull in model units, in the original's order.
@@ -52,36 +51,6 @@ pub const HULL: [(f64, f64); 30] = [
     (0.3, -0.8),
     (0.2, -0.5),
 ];
-
-/// The lander's kinematic state.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct State {
-    pub x: f64,
-    pub y: f64,
-    pub vx: f64,
-    pub vy: f64,
-    pub rot: f64,
-}
-
-impl State {
-    pub fn speed(&self) -> f64 {
-        (self.vx * self.vx + self.vy * self.vy).sqrt()
-    }
-}
-
-/// How a flight ended.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Outcome {
-    pub state: State,
-    /// Ticks flown, including the drift after the genes ran out.
-    pub ticks: u32,
-    /// Decoded ticks flown: `min(ticks, Σ durations)`.
-    pub n: u32,
-    /// False when the flight hit the tick guard instead of the ground.
-    pub touched_down: bool,
-    pub safe: bool,
-    pub fitness: f64,
-}
 
 /// A lander in flight, with the constants of its world unpacked.
 #[derive(Clone, Copy, Debug)]

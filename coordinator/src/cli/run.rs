@@ -4,12 +4,14 @@ use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lander_coordinator::config::RunConfig;
-use lander_coordinator::evaluator::InProcess;
+use lander_coordinator::evaluator::{Evaluator, InProcess};
+use lander_coordinator::pool::{IpcPool, PoolOptions};
 use lander_coordinator::report::{write_json, BestRecord, GenerationLog, Summary};
 use lander_coordinator::trial::{run_trial, Generation};
+use lander_protocol::iox::MAX_WORKERS;
 use lander_protocol::Method;
 use std::path::PathBuf;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 #[derive(Args, Debug)]
 pub struct RunArgs {
@@ -41,6 +43,20 @@ pub struct RunArgs {
     /// Print one JSON summary object on stdout.
     #[arg(long)]
     json: bool,
+    /// Worker processes to spawn, evaluating over iceoryx2 shared memory;
+    /// 0 evaluates in this process.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    workers: usize,
+    /// Wait for workers started elsewhere with `lander-worker --run <id>`;
+    /// they may join or leave at any time.
+    #[arg(long)]
+    attach: bool,
+    /// The run id that names this run's iceoryx2 services [default: random].
+    #[arg(long, value_name = "ID")]
+    run_id: Option<String>,
+    /// Seconds a worker may take over one chunk before it goes to another.
+    #[arg(long, value_name = "SECS", default_value_t = 30.0)]
+    deadline: f64,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -76,6 +92,68 @@ impl RunArgs {
     }
 }
 
+impl RunArgs {
+    /// The evaluator the flags ask for: in-process, spawned workers, or
+    /// attached ones.
+    fn evaluator(&self, cfg: &RunConfig, bar: &ProgressBar) -> anyhow::Result<Box<dyn Evaluator>> {
+        anyhow::ensure!(
+            self.workers <= MAX_WORKERS,
+            "--workers must be at most {MAX_WORKERS} (got {})",
+            self.workers
+        );
+        anyhow::ensure!(
+            self.deadline.is_finite() && self.deadline > 0.0,
+            "--deadline must be a positive number of seconds (got {})",
+            self.deadline
+        );
+        if self.workers == 0 && !self.attach {
+            anyhow::ensure!(
+                self.run_id.is_none(),
+                "--run-id needs --workers or --attach"
+            );
+            return Ok(Box::new(InProcess::new(cfg.threads)?));
+        }
+        anyhow::ensure!(
+            !(self.attach && self.workers > 0),
+            "--attach and --workers N exclude each other: attach waits for workers started elsewhere"
+        );
+        let run_id = match &self.run_id {
+            Some(id) => check_run_id(id)?,
+            None => format!("{:08x}", rand::random::<u32>()),
+        };
+        let worker_exe = std::env::current_exe()
+            .context("finding this executable")?
+            .with_file_name("lander-worker");
+        let opts = PoolOptions {
+            run_id,
+            spawn: self.workers,
+            worker_exe,
+            chunks_per_worker: 4,
+            deadline: Duration::from_secs_f64(self.deadline),
+            max_respawns: 3 * self.workers.max(1),
+        };
+        let bar = bar.clone();
+        let say = Box::new(move |msg: &str| bar.suspend(|| eprintln!("lander: {msg}")));
+        if self.attach {
+            say(&format!("run id {}", opts.run_id));
+        }
+        Ok(Box::new(IpcPool::start(opts, say)?))
+    }
+}
+
+fn check_run_id(id: &str) -> anyhow::Result<String> {
+    let ok = !id.is_empty()
+        && id.len() <= 64
+        && id
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    anyhow::ensure!(
+        ok,
+        "--run-id must be 1 to 64 letters, digits, '-' or '_' (got {id:?})"
+    );
+    Ok(id.to_string())
+}
+
 pub fn run(args: RunArgs) -> anyhow::Result<()> {
     let cfg = args.config()?;
     let out = args.out.clone().unwrap_or_else(|| {
@@ -86,11 +164,11 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
             cfg.trial
         ))
     });
-    let mut evaluator = InProcess::new(cfg.threads)?;
-    let mut log = GenerationLog::create(&out)?;
     let bar = progress_bar(cfg.ga.max_generations);
+    let mut evaluator = args.evaluator(&cfg, &bar)?;
+    let mut log = GenerationLog::create(&out)?;
     let started = Instant::now();
-    let result = run_trial(&cfg, &mut evaluator, &mut |g: &Generation| {
+    let result = run_trial(&cfg, evaluator.as_mut(), &mut |g: &Generation| {
         show(&bar, g);
         log.write(g)?;
         Ok(())
@@ -98,6 +176,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     .context("the trial stopped")?;
     let wall_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    drop(evaluator);
 
     let best_path = out.join("best.json");
     write_json(&best_path, &BestRecord::new(&cfg, &result))?;

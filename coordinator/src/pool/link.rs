@@ -1,0 +1,227 @@
+//! The coordinator's end of one worker: its client, its job notifier and
+//! the chunk it is working on.
+
+use crate::evaluator::Batch;
+use iceoryx2::pending_response::PendingResponse;
+use iceoryx2::port::client::Client;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::prelude::*;
+use lander_protocol::iox::{self, IpcError, RunNames, JOB_EVENT, SHUTDOWN_EVENT};
+use lander_protocol::wire::{
+    ChunkResult, JobHeader, ResultHeader, Status, WireError, WireGene, WorkerAnnounce,
+    PROTOCOL_VERSION,
+};
+use lander_protocol::Method;
+use std::ops::Range;
+use std::time::{Duration, Instant};
+
+type EvalClient = Client<ipc::Service, [WireGene], JobHeader, [u8], ResultHeader>;
+type Pending = PendingResponse<ipc::Service, [WireGene], JobHeader, [u8], ResultHeader>;
+
+struct InFlight {
+    job_id: u64,
+    chunk: usize,
+    pending: Pending,
+    deadline: Instant,
+}
+
+pub struct Link {
+    pub id: u64,
+    pub pid: u32,
+    client: EvalClient,
+    jobs: Notifier<ipc::Service>,
+    busy: Option<InFlight>,
+    broken: bool,
+}
+
+/// What a look at a link found.
+pub enum Poll {
+    Idle,
+    Busy,
+    Answered {
+        chunk: usize,
+        result: ChunkResult,
+    },
+    /// The worker answered something unusable; the link is now broken and
+    /// its chunk will be flown elsewhere.
+    Refused(String),
+}
+
+impl Link {
+    /// Connects to an announced worker's services.
+    pub fn open(
+        node: &Node<ipc::Service>,
+        names: &RunNames,
+        w: WorkerAnnounce,
+    ) -> Result<Link, IpcError> {
+        let client = iox::eval_service(node, &names.eval(w.worker_id))?
+            .client_builder()
+            .initial_max_slice_len(4096)
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .create()
+            .map_err(iox::fail("creating a client"))?;
+        let jobs = iox::event_service(node, &names.jobs(w.worker_id))?
+            .notifier_builder()
+            .create()
+            .map_err(iox::fail("creating a job notifier"))?;
+        Ok(Link {
+            id: w.worker_id,
+            pid: w.pid,
+            client,
+            jobs,
+            busy: None,
+            broken: false,
+        })
+    }
+
+    pub fn is_idle(&self) -> bool {
+        self.busy.is_none() && !self.broken
+    }
+
+    pub fn is_broken(&self) -> bool {
+        self.broken
+    }
+
+    pub fn deadline(&self) -> Option<Instant> {
+        self.busy.as_ref().map(|f| f.deadline)
+    }
+
+    pub fn overdue(&self, now: Instant) -> bool {
+        self.deadline().is_some_and(|d| now >= d)
+    }
+
+    /// Gives up on the chunk in flight, returning it.
+    pub fn abandon(&mut self) -> Option<usize> {
+        self.busy.take().map(|f| f.chunk)
+    }
+
+    /// Sends genomes `range` of the batch as chunk `chunk`.
+    pub fn send(
+        &mut self,
+        batch: &Batch<'_>,
+        job_id: u64,
+        chunk: usize,
+        range: Range<usize>,
+        deadline: Duration,
+    ) -> Result<(), IpcError> {
+        let genomes = &batch.genomes[range.clone()];
+        let length = genomes.first().map_or(0, Vec::len);
+        let header = JobHeader {
+            version: PROTOCOL_VERSION,
+            method: batch.method.code(),
+            job_id,
+            key: batch.key,
+            first_index: range.start as u64,
+            genomes: genomes.len() as u32,
+            genome_length: length as u32,
+            max_duration: u32::from(batch.max_duration),
+            env: batch.env,
+            guide: batch.guide,
+        };
+        let sent = (|| {
+            let mut request = self
+                .client
+                .loan_slice_uninit(genomes.len() * length)
+                .map_err(iox::fail("loaning a request"))?;
+            *request.user_header_mut() = header;
+            let request =
+                request.write_from_fn(|i| WireGene::from(genomes[i / length][i % length]));
+            let pending = request.send().map_err(iox::fail("sending a request"))?;
+            if pending.number_of_server_connections() == 0 {
+                return Err(IpcError {
+                    what: "sending a request".into(),
+                    detail: "the worker's server is gone".into(),
+                });
+            }
+            self.jobs
+                .notify_with_custom_event_id(EventId::new(JOB_EVENT))
+                .map_err(iox::fail("notifying the worker"))?;
+            Ok(pending)
+        })();
+        match sent {
+            Ok(pending) => {
+                self.busy = Some(InFlight {
+                    job_id,
+                    chunk,
+                    pending,
+                    deadline: Instant::now() + deadline,
+                });
+                Ok(())
+            }
+            Err(e) => {
+                self.broken = true;
+                Err(e)
+            }
+        }
+    }
+
+    /// Looks for the answer to the chunk in flight.
+    pub fn poll(&mut self, method: Method, length: usize, ranges: &[Range<usize>]) -> Poll {
+        let Some(flight) = &self.busy else {
+            return Poll::Idle;
+        };
+        let answer = match flight.pending.receive() {
+            Ok(Some(response)) => check(
+                flight,
+                response.user_header(),
+                response.payload(),
+                method,
+                ranges[flight.chunk].len(),
+                length,
+            ),
+            Ok(None) if flight.pending.is_connected() => return Poll::Busy,
+            Ok(None) | Err(_) => {
+                self.broken = true;
+                return Poll::Busy;
+            }
+        };
+        match answer {
+            Ok(result) => {
+                let chunk = flight.chunk;
+                self.busy = None;
+                Poll::Answered { chunk, result }
+            }
+            Err(e) => {
+                self.broken = true;
+                Poll::Refused(e)
+            }
+        }
+    }
+
+    /// Tells the worker the run is over.
+    pub fn shut_down(&self) {
+        let _ = self
+            .jobs
+            .notify_with_custom_event_id(EventId::new(SHUTDOWN_EVENT));
+    }
+}
+
+/// Checks a response against the job it answers.
+fn check(
+    flight: &InFlight,
+    h: &ResultHeader,
+    body: &[u8],
+    method: Method,
+    genomes: usize,
+    length: usize,
+) -> Result<ChunkResult, String> {
+    if h.version != PROTOCOL_VERSION {
+        return Err(WireError::Version { got: h.version }.to_string());
+    }
+    if h.job_id != flight.job_id {
+        return Err(format!(
+            "answer to job {} while job {} was asked",
+            h.job_id, flight.job_id
+        ));
+    }
+    match Status::from_code(h.status) {
+        Some(Status::Done) => {
+            ChunkResult::decode(body, method, genomes, length).map_err(|e| e.to_string())
+        }
+        Some(status) => Err(format!(
+            "the worker refused the job ({status:?}): {}",
+            String::from_utf8_lossy(body)
+        )),
+        None => Err(format!("unknown status {}", h.status)),
+    }
+}

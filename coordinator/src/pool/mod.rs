@@ -1,0 +1,324 @@
+//! The evaluator pool: hands chunks of a generation to worker processes over
+//! iceoryx2 and survives their failures.
+//!
+//! Each generation is split into chunks, several per worker, and the next
+//! chunk goes to whichever worker is idle. The pool sleeps on its `wake`
+//! event between results, never spinning. A chunk whose worker dies (its
+//! process exits, its node is found dead, or its server disconnects) or
+//! misses its deadline goes back in the queue; a late duplicate is dropped
+//! by job id. Results are placed by chunk, so they are identical however the
+//! work was spread.
+
+mod link;
+mod spawn;
+
+use crate::evaluator::{Batch, EvalError, Evaluator};
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+use lander_protocol::iox::{self, RunNames};
+use lander_protocol::wire::{ChunkResult, WorkerAnnounce, PROTOCOL_VERSION};
+use lander_protocol::{Action, Evaluation};
+use link::{Link, Poll};
+use spawn::Children;
+use std::collections::VecDeque;
+use std::ops::Range;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// How long the pool sleeps at most before looking after its workers.
+const SLICE: Duration = Duration::from_millis(25);
+/// How often dead nodes are looked for.
+const REAP_EVERY: Duration = Duration::from_millis(100);
+
+/// How a pool finds its workers.
+#[derive(Clone, Debug)]
+pub struct PoolOptions {
+    /// The run id that names every service.
+    pub run_id: String,
+    /// Workers to spawn and keep alive; 0 means workers attach themselves.
+    pub spawn: usize,
+    /// The `lander-worker` executable for spawned workers.
+    pub worker_exe: PathBuf,
+    /// Chunks per worker in each generation.
+    pub chunks_per_worker: usize,
+    /// A chunk not answered within this goes to another worker.
+    pub deadline: Duration,
+    /// Spawned workers replaced after dying, at most.
+    pub max_respawns: usize,
+}
+
+/// Messages for the user, such as "waiting for workers".
+pub type Say = Box<dyn Fn(&str) + Send>;
+
+pub struct IpcPool {
+    opts: PoolOptions,
+    names: RunNames,
+    node: Node<ipc::Service>,
+    register: Subscriber<ipc::Service, WorkerAnnounce, ()>,
+    wake: Listener<ipc::Service>,
+    links: Vec<Link>,
+    children: Children,
+    next_job: u64,
+    last_reap: Instant,
+    told_waiting: bool,
+    say: Say,
+}
+
+impl IpcPool {
+    /// Opens the run's services and, when asked to, spawns its workers.
+    pub fn start(opts: PoolOptions, say: Say) -> Result<IpcPool, EvalError> {
+        iox::quiet_logs();
+        let config = iox::config()?;
+        let names = RunNames::new(&opts.run_id);
+        // Ctrl-C should stop the coordinator at once; a later run reaps what
+        // it leaves behind, as this one does now.
+        let node = iox::node(
+            &format!("lander-coordinator-{}", opts.run_id),
+            &config,
+            SignalHandlingMode::Disabled,
+        )?;
+        node.try_cleanup_dead_nodes();
+        let register = iox::register_service(&node, &names.register())?
+            .subscriber_builder()
+            .create()
+            .map_err(iox::fail("subscribing to registrations"))?;
+        let wake = iox::event_service(&node, &names.wake())?
+            .listener_builder()
+            .create()
+            .map_err(iox::fail("listening for workers"))?;
+        let mut pool = IpcPool {
+            names,
+            node,
+            register,
+            wake,
+            links: Vec::new(),
+            children: Children::new(
+                opts.worker_exe.clone(),
+                opts.run_id.clone(),
+                opts.max_respawns,
+            ),
+            next_job: 0,
+            last_reap: Instant::now(),
+            told_waiting: false,
+            say,
+            opts,
+        };
+        for _ in 0..pool.opts.spawn {
+            pool.children.spawn()?;
+        }
+        Ok(pool)
+    }
+
+    pub fn run_id(&self) -> &str {
+        &self.opts.run_id
+    }
+
+    /// Connects to workers that announced themselves since the last look.
+    fn accept(&mut self) -> Result<(), EvalError> {
+        while let Some(sample) = self
+            .register
+            .receive()
+            .map_err(iox::fail("reading registrations"))?
+        {
+            let w = *sample;
+            if self.links.iter().any(|l| l.id == w.worker_id) {
+                continue;
+            }
+            if w.version != PROTOCOL_VERSION {
+                (self.say)(&format!(
+                    "refusing worker {:016x} (pid {}): it speaks protocol version {}, this coordinator {}",
+                    w.worker_id, w.pid, w.version, PROTOCOL_VERSION
+                ));
+                continue;
+            }
+            match Link::open(&self.node, &self.names, w) {
+                Ok(link) => self.links.push(link),
+                Err(e) => (self.say)(&format!("cannot reach worker {:016x}: {e}", w.worker_id)),
+            }
+        }
+        Ok(())
+    }
+
+    /// Drops links whose process exited or whose node died, and replaces
+    /// spawned workers that are gone. Their chunks go back in `todo`.
+    fn reap(&mut self, todo: &mut VecDeque<usize>) -> Result<(), EvalError> {
+        for pid in self.children.exited() {
+            self.drop_links(todo, |l| l.pid == pid, "exited");
+            self.children.respawn()?;
+        }
+        if self.last_reap.elapsed() >= REAP_EVERY {
+            self.node.try_cleanup_dead_nodes();
+            self.last_reap = Instant::now();
+        }
+        let now = Instant::now();
+        for link in self.links.iter().filter(|l| l.overdue(now)) {
+            self.children.kill(link.pid);
+        }
+        self.drop_links(todo, |l| l.overdue(now), "missed its deadline");
+        Ok(())
+    }
+
+    /// Forgets the links `gone` picks, putting their chunks back first.
+    fn drop_links(&mut self, todo: &mut VecDeque<usize>, gone: impl Fn(&Link) -> bool, why: &str) {
+        let mut dropped = Vec::new();
+        self.links.retain_mut(|link| {
+            if !gone(link) {
+                return true;
+            }
+            let requeued = link.abandon().inspect(|&chunk| todo.push_front(chunk));
+            dropped.push((link.id, requeued.is_some()));
+            false
+        });
+        for (id, requeued) in dropped {
+            let then = if requeued {
+                "; its chunk goes to another worker"
+            } else {
+                ""
+            };
+            (self.say)(&format!("worker {id:016x} {why}{then}"));
+        }
+    }
+
+    /// Sleeps until a worker says something or the next deadline is due.
+    fn sleep(&mut self) -> Result<(), EvalError> {
+        let until_deadline = self
+            .links
+            .iter()
+            .filter_map(Link::deadline)
+            .min()
+            .map(|d| d.saturating_duration_since(Instant::now()));
+        let slice = until_deadline.map_or(SLICE, |d| d.min(SLICE));
+        self.wake
+            .timed_wait(|_| {}, slice)
+            .map_err(iox::fail("waiting for workers"))?;
+        Ok(())
+    }
+
+    fn tell_waiting(&mut self) {
+        if self.links.is_empty() && self.opts.spawn == 0 && !self.told_waiting {
+            (self.say)(&format!(
+                "waiting for workers: start them with `lander-worker --run {}`",
+                self.opts.run_id
+            ));
+            self.told_waiting = true;
+        }
+    }
+}
+
+/// Splits `n` genomes into about `parts` contiguous chunks.
+fn chunks(n: usize, parts: usize) -> Vec<Range<usize>> {
+    let parts = parts.clamp(1, n.max(1));
+    let size = n.div_ceil(parts);
+    (0..n)
+        .step_by(size.max(1))
+        .map(|s| s..(s + size).min(n))
+        .collect()
+}
+
+impl Evaluator for IpcPool {
+    fn evaluate(&mut self, batch: Batch<'_>) -> Result<Vec<Evaluation>, EvalError> {
+        let n = batch.genomes.len();
+        let length = batch.genomes.first().map_or(0, Vec::len);
+        if batch.genomes.iter().any(|g| g.len() != length) {
+            return Err(EvalError::Ragged);
+        }
+        let workers = self.links.len().max(self.opts.spawn).max(1);
+        let ranges = chunks(n, workers * self.opts.chunks_per_worker);
+        let mut todo: VecDeque<usize> = (0..ranges.len()).collect();
+        let mut done: Vec<Option<ChunkResult>> = vec![None; ranges.len()];
+        let mut remaining = ranges.len();
+        while remaining > 0 {
+            self.accept()?;
+            self.reap(&mut todo)?;
+            for link in &mut self.links {
+                match link.poll(batch.method, length, &ranges) {
+                    Poll::Idle | Poll::Busy => {}
+                    Poll::Answered { chunk, result } => {
+                        if done[chunk].is_none() {
+                            done[chunk] = Some(result);
+                            remaining -= 1;
+                        }
+                    }
+                    Poll::Refused(e) => {
+                        (self.say)(&format!(
+                            "refusing a result from worker {:016x}: {e}",
+                            link.id
+                        ));
+                    }
+                }
+            }
+            self.drop_links(&mut todo, Link::is_broken, "disconnected");
+            if remaining == 0 {
+                break;
+            }
+            todo.retain(|&c| done[c].is_none());
+            for link in self.links.iter_mut().filter(|l| l.is_idle()) {
+                let Some(chunk) = todo.pop_front() else { break };
+                let job_id = self.next_job;
+                self.next_job += 1;
+                let range = ranges[chunk].clone();
+                if let Err(e) = link.send(&batch, job_id, chunk, range, self.opts.deadline) {
+                    (self.say)(&format!("cannot send to worker {:016x}: {e}", link.id));
+                    todo.push_front(chunk);
+                }
+            }
+            self.drop_links(&mut todo, Link::is_broken, "disconnected");
+            if self.links.is_empty() && self.children.is_empty() && self.opts.spawn > 0 {
+                return Err(EvalError::NoWorkers {
+                    respawns: self.opts.max_respawns,
+                });
+            }
+            self.tell_waiting();
+            self.sleep()?;
+        }
+        Ok(assemble(batch.genomes, &ranges, done))
+    }
+}
+
+/// Puts the chunks' results in population order and writes the guided
+/// actions back into the genomes.
+fn assemble(
+    genomes: &mut [crate::ga::Genome],
+    ranges: &[Range<usize>],
+    done: Vec<Option<ChunkResult>>,
+) -> Vec<Evaluation> {
+    let mut out = Vec::with_capacity(genomes.len());
+    for (range, result) in ranges.iter().zip(done.into_iter().flatten()) {
+        let chunk = &mut genomes[range.clone()];
+        if !result.actions.is_empty() {
+            let genes = chunk.iter_mut().flat_map(|g| g.iter_mut());
+            for (gene, &a) in genes.zip(&result.actions) {
+                // Checked on decoding: every action is 0..=3.
+                gene.action = Action::from_index(a).unwrap_or(gene.action);
+            }
+        }
+        out.extend(result.evaluations);
+    }
+    out
+}
+
+impl Drop for IpcPool {
+    fn drop(&mut self) {
+        for link in &self.links {
+            link.shut_down();
+        }
+        self.children.stop_all();
+        self.node.try_cleanup_dead_nodes();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::chunks;
+
+    #[test]
+    fn chunks_cover_everything_once_in_order() {
+        for (n, parts) in [(100, 8), (100, 1), (7, 20), (1, 4), (0, 3), (10_000, 12)] {
+            let c = chunks(n, parts);
+            let flat: Vec<usize> = c.iter().flat_map(|r| r.clone()).collect();
+            assert_eq!(flat, (0..n).collect::<Vec<_>>(), "n={n} parts={parts}");
+            assert!(c.len() <= parts.max(1));
+        }
+    }
+}

@@ -1,0 +1,96 @@
+//! Worker processes the coordinator starts itself: spawned, reaped with
+//! `waitpid` (iceoryx2 cannot tell a zombie from a live process) and
+//! replaced a bounded number of times.
+
+use crate::evaluator::EvalError;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+pub struct Children {
+    exe: PathBuf,
+    run_id: String,
+    procs: Vec<Child>,
+    next_id: u64,
+    respawns_left: usize,
+}
+
+impl Children {
+    pub fn new(exe: PathBuf, run_id: String, max_respawns: usize) -> Children {
+        Children {
+            exe,
+            run_id,
+            procs: Vec::new(),
+            next_id: 1,
+            respawns_left: max_respawns,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.procs.is_empty()
+    }
+
+    /// Starts one more worker.
+    pub fn spawn(&mut self) -> Result<(), EvalError> {
+        let child = Command::new(&self.exe)
+            .args([
+                "--run",
+                &self.run_id,
+                "--id",
+                &format!("{:x}", self.next_id),
+                "--quiet",
+            ])
+            .stdin(Stdio::null())
+            .spawn()
+            .map_err(|e| EvalError::Spawn {
+                exe: self.exe.display().to_string(),
+                reason: e.to_string(),
+            })?;
+        self.next_id += 1;
+        self.procs.push(child);
+        Ok(())
+    }
+
+    /// Replaces a worker that died, while the respawn budget lasts.
+    pub fn respawn(&mut self) -> Result<(), EvalError> {
+        if self.respawns_left > 0 {
+            self.respawns_left -= 1;
+            self.spawn()?;
+        }
+        Ok(())
+    }
+
+    /// Reaps the workers that exited and returns their pids.
+    pub fn exited(&mut self) -> Vec<u32> {
+        let mut gone = Vec::new();
+        self.procs.retain_mut(|c| match c.try_wait() {
+            Ok(None) => true,
+            Ok(Some(_)) | Err(_) => {
+                gone.push(c.id());
+                false
+            }
+        });
+        gone
+    }
+
+    /// Kills a hung worker; the next `exited` reaps it.
+    pub fn kill(&mut self, pid: u32) {
+        if let Some(c) = self.procs.iter_mut().find(|c| c.id() == pid) {
+            let _ = c.kill();
+        }
+    }
+
+    /// Waits for every worker to leave after being told the run is over,
+    /// killing those that do not within a few seconds.
+    pub fn stop_all(&mut self) {
+        let patience = Instant::now() + Duration::from_secs(5);
+        while !self.procs.is_empty() && Instant::now() < patience {
+            self.exited();
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        for mut c in self.procs.drain(..) {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}

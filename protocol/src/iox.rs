@@ -1,0 +1,179 @@
+//! The iceoryx2 services of a run: their names, limits and configuration.
+//!
+//! iceoryx2 has no work queue: a request reaches every connected server. So
+//! each worker has services of its own, and the coordinator chooses which
+//! worker gets a chunk. Everything is named under `lander/<run>/`, so two
+//! runs on one host never meet.
+//!
+//! | service                       | pattern          | direction             |
+//! |-------------------------------|------------------|-----------------------|
+//! | `lander/<run>/register`       | publish-subscribe| worker → coordinator  |
+//! | `lander/<run>/wake`           | event            | worker → coordinator  |
+//! | `lander/<run>/worker/<w>/eval`| request-response | coordinator ↔ worker  |
+//! | `lander/<run>/worker/<w>/jobs`| event            | coordinator → worker  |
+
+use crate::wire::{JobHeader, ResultHeader, WireGene, WorkerAnnounce};
+use iceoryx2::prelude::*;
+use iceoryx2::service::port_factory::{event, publish_subscribe, request_response};
+use std::fmt::Debug;
+
+/// The file-name prefix of the project's iceoryx2 resources. iceoryx2 keeps
+/// one management file per prefix for good, so runs share one prefix and
+/// differ in service names.
+pub const DEFAULT_PREFIX: &str = "lander_";
+/// Environment variables that move a run's resources elsewhere, for tests.
+pub const PREFIX_ENV: &str = "LANDER_IOX2_PREFIX";
+pub const ROOT_ENV: &str = "LANDER_IOX2_ROOT";
+
+/// The most workers one run takes.
+pub const MAX_WORKERS: usize = 128;
+
+/// Event ids on a worker's `jobs` service.
+pub const JOB_EVENT: usize = 1;
+pub const SHUTDOWN_EVENT: usize = 2;
+
+pub type EvalService =
+    request_response::PortFactory<ipc::Service, [WireGene], JobHeader, [u8], ResultHeader>;
+pub type EventService = event::PortFactory<ipc::Service>;
+pub type RegisterService = publish_subscribe::PortFactory<ipc::Service, WorkerAnnounce, ()>;
+
+#[derive(Debug, thiserror::Error)]
+#[error("iceoryx2: {what}: {detail}")]
+pub struct IpcError {
+    pub what: String,
+    pub detail: String,
+}
+
+/// Wraps an iceoryx2 error with what was being done.
+pub fn fail<E: Debug>(what: impl Into<String>) -> impl FnOnce(E) -> IpcError {
+    let what = what.into();
+    move |e| IpcError {
+        what,
+        detail: format!("{e:?}"),
+    }
+}
+
+/// The explicit configuration every process of a run uses. Passing one
+/// also keeps iceoryx2's "No config file was loaded" warning away.
+pub fn config() -> Result<Config, IpcError> {
+    let mut config = Config::default();
+    let prefix = std::env::var(PREFIX_ENV).unwrap_or_else(|_| DEFAULT_PREFIX.into());
+    config.global.prefix =
+        FileName::new(prefix.as_bytes()).map_err(fail(format!("{PREFIX_ENV}={prefix}")))?;
+    if let Ok(root) = std::env::var(ROOT_ENV) {
+        let path = Path::new(root.as_bytes()).map_err(fail(format!("{ROOT_ENV}={root}")))?;
+        config.global.set_root_path(&path);
+    }
+    Ok(config)
+}
+
+/// Quiets iceoryx2's own log unless `IOX2_LOG_LEVEL` asks for more.
+pub fn quiet_logs() {
+    set_log_level_from_env_or(LogLevel::Error);
+}
+
+/// A node named `name`; signal handling is left to the caller's choice.
+pub fn node(
+    name: &str,
+    config: &Config,
+    signals: SignalHandlingMode,
+) -> Result<Node<ipc::Service>, IpcError> {
+    let node_name: NodeName = name.try_into().map_err(fail(format!("node name {name}")))?;
+    NodeBuilder::new()
+        .name(&node_name)
+        .config(config)
+        .signal_handling_mode(signals)
+        .create::<ipc::Service>()
+        .map_err(fail(format!("creating node {name}")))
+}
+
+/// The service names of one run.
+#[derive(Clone, Debug)]
+pub struct RunNames {
+    run: String,
+}
+
+impl RunNames {
+    pub fn new(run: &str) -> RunNames {
+        RunNames { run: run.into() }
+    }
+
+    pub fn run(&self) -> &str {
+        &self.run
+    }
+
+    pub fn register(&self) -> String {
+        format!("lander/{}/register", self.run)
+    }
+
+    pub fn wake(&self) -> String {
+        format!("lander/{}/wake", self.run)
+    }
+
+    pub fn eval(&self, worker: u64) -> String {
+        format!("lander/{}/worker/{worker:016x}/eval", self.run)
+    }
+
+    pub fn jobs(&self, worker: u64) -> String {
+        format!("lander/{}/worker/{worker:016x}/jobs", self.run)
+    }
+}
+
+fn service_name(name: &str) -> Result<ServiceName, IpcError> {
+    name.try_into()
+        .map_err(fail(format!("service name {name}")))
+}
+
+/// Whether the run's services exist yet: a worker waits for this.
+pub fn run_exists(names: &RunNames, config: &Config) -> Result<bool, IpcError> {
+    ipc::Service::does_exist(
+        &service_name(&names.wake())?,
+        config,
+        MessagingPattern::Event,
+    )
+    .map_err(fail("looking for the run"))
+}
+
+/// A worker's evaluation service, one server (the worker) and one client.
+pub fn eval_service(node: &Node<ipc::Service>, name: &str) -> Result<EvalService, IpcError> {
+    node.service_builder(&service_name(name)?)
+        .request_response::<[WireGene], [u8]>()
+        .request_user_header::<JobHeader>()
+        .response_user_header::<ResultHeader>()
+        .max_servers(1)
+        .max_clients(2)
+        .max_nodes(4)
+        .max_active_requests_per_client(4)
+        .max_response_buffer_size(4)
+        .max_loaned_requests(4)
+        .enable_safe_overflow_for_responses(false)
+        .open_or_create()
+        .map_err(fail(format!("opening {name}")))
+}
+
+/// An event service with room for every worker of a run.
+pub fn event_service(node: &Node<ipc::Service>, name: &str) -> Result<EventService, IpcError> {
+    node.service_builder(&service_name(name)?)
+        .event()
+        .max_notifiers(MAX_WORKERS + 4)
+        .max_listeners(4)
+        .max_nodes(MAX_WORKERS + 4)
+        .open_or_create()
+        .map_err(fail(format!("opening {name}")))
+}
+
+/// The registration service: each worker publishes its announcement.
+pub fn register_service(
+    node: &Node<ipc::Service>,
+    name: &str,
+) -> Result<RegisterService, IpcError> {
+    node.service_builder(&service_name(name)?)
+        .publish_subscribe::<WorkerAnnounce>()
+        .max_publishers(MAX_WORKERS + 4)
+        .max_subscribers(2)
+        .max_nodes(MAX_WORKERS + 4)
+        .subscriber_max_buffer_size(4)
+        .history_size(0)
+        .open_or_create()
+        .map_err(fail(format!("opening {name}")))
+}

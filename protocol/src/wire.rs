@@ -1,0 +1,240 @@
+//! How jobs and results are laid out between processes, and the checks a
+//! receiver makes before it believes them.
+//!
+//! A job travels zero-copy through shared memory: a [`JobHeader`] with the
+//! environment, method, parameters and stream key, and the genomes as one
+//! flat slice of [`WireGene`]. A result is a [`ResultHeader`] and a
+//! postcard-encoded [`ChunkResult`]: each genome's evaluation plus, for the
+//! guided GA, the rewritten actions. That is two variable-length parts, which
+//! one plain slice cannot hold; postcard is also what crosses hosts.
+
+use crate::{Action, Env, Evaluation, Gene, GuideParams, Method, StreamKey};
+use iceoryx2::prelude::ZeroCopySend;
+use serde::{Deserialize, Serialize};
+
+/// Bumped whenever any layout here changes.
+pub const PROTOCOL_VERSION: u32 = 1;
+
+/// A gene as raw bytes: another process may write any value, so the action
+/// is checked before it becomes an [`Action`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ZeroCopySend)]
+#[type_name("lander::WireGene")]
+pub struct WireGene {
+    pub action: u8,
+    pub duration: u8,
+}
+
+impl From<Gene> for WireGene {
+    fn from(g: Gene) -> WireGene {
+        WireGene {
+            action: g.action.index(),
+            duration: g.duration,
+        }
+    }
+}
+
+/// A chunk of genomes to evaluate: genome `i` of the chunk is individual
+/// `first_index + i` of its generation and uses that guided-pass stream.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, ZeroCopySend)]
+#[type_name("lander::JobHeader")]
+pub struct JobHeader {
+    pub version: u32,
+    pub method: u32,
+    pub job_id: u64,
+    pub key: StreamKey,
+    pub first_index: u64,
+    pub genomes: u32,
+    pub genome_length: u32,
+    pub max_duration: u32,
+    pub env: Env,
+    pub guide: GuideParams,
+}
+
+/// What became of a job.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    Done = 0,
+    /// The worker speaks another protocol version.
+    WrongVersion = 1,
+    /// The job failed the worker's checks.
+    BadJob = 2,
+}
+
+impl Status {
+    pub fn from_code(code: u32) -> Option<Status> {
+        [Status::Done, Status::WrongVersion, Status::BadJob]
+            .into_iter()
+            .find(|s| *s as u32 == code)
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, ZeroCopySend)]
+#[type_name("lander::ResultHeader")]
+pub struct ResultHeader {
+    pub version: u32,
+    pub status: u32,
+    pub job_id: u64,
+    pub worker_id: u64,
+}
+
+/// A worker's announcement that it is ready to serve a run.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ZeroCopySend)]
+#[type_name("lander::WorkerAnnounce")]
+pub struct WorkerAnnounce {
+    pub version: u32,
+    pub pid: u32,
+    pub worker_id: u64,
+}
+
+/// The body of a result: one evaluation per genome and, for the guided GA,
+/// every genome's actions after the evolve pass (`genomes × length` bytes).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ChunkResult {
+    pub evaluations: Vec<Evaluation>,
+    pub actions: Vec<u8>,
+}
+
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum WireError {
+    #[error("protocol version {got}, but this side speaks version {PROTOCOL_VERSION}")]
+    Version { got: u32 },
+    #[error("unknown method code {0}")]
+    Method(u32),
+    #[error("{genomes} genomes of {length} genes need {expected} genes, but {got} arrived")]
+    Length {
+        genomes: u32,
+        length: u32,
+        expected: usize,
+        got: usize,
+    },
+    #[error("gene {index}: action {action} is not 0..=3")]
+    Action { index: usize, action: u8 },
+    #[error("gene {index}: duration {duration} exceeds {max}")]
+    Duration {
+        index: usize,
+        duration: u8,
+        max: u32,
+    },
+    #[error("result does not decode: {0}")]
+    Decode(String),
+    #[error("result has {got} evaluations for {expected} genomes")]
+    Count { expected: usize, got: usize },
+    #[error("evaluation {0} is not a possible flight (non-finite or inconsistent)")]
+    Implausible(usize),
+}
+
+/// A job as the worker sees it once checked.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Job {
+    pub method: Method,
+    pub key: StreamKey,
+    pub first_index: u64,
+    pub genome_length: usize,
+    pub env: Env,
+    pub guide: GuideParams,
+    /// `genomes × genome_length` genes, genome after genome.
+    pub genes: Vec<Gene>,
+}
+
+impl Job {
+    /// Checks a job header and its genes.
+    pub fn from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<Job, WireError> {
+        if h.version != PROTOCOL_VERSION {
+            return Err(WireError::Version { got: h.version });
+        }
+        let method = Method::from_code(h.method).ok_or(WireError::Method(h.method))?;
+        let expected = h.genomes as usize * h.genome_length as usize;
+        if genes.len() != expected || h.genome_length == 0 {
+            return Err(WireError::Length {
+                genomes: h.genomes,
+                length: h.genome_length,
+                expected,
+                got: genes.len(),
+            });
+        }
+        let genes = genes
+            .iter()
+            .enumerate()
+            .map(|(index, g)| check_gene(index, *g, h.max_duration))
+            .collect::<Result<_, _>>()?;
+        Ok(Job {
+            method,
+            key: h.key,
+            first_index: h.first_index,
+            genome_length: h.genome_length as usize,
+            env: h.env,
+            guide: h.guide,
+            genes,
+        })
+    }
+}
+
+fn check_gene(index: usize, g: WireGene, max: u32) -> Result<Gene, WireError> {
+    let action = Action::from_index(g.action).ok_or(WireError::Action {
+        index,
+        action: g.action,
+    })?;
+    if u32::from(g.duration) > max {
+        return Err(WireError::Duration {
+            index,
+            duration: g.duration,
+            max,
+        });
+    }
+    Ok(Gene::new(action, g.duration))
+}
+
+impl ChunkResult {
+    pub fn encode(&self) -> Vec<u8> {
+        // Encoding plain structs into a Vec cannot fail.
+        postcard::to_allocvec(self).unwrap_or_default()
+    }
+
+    /// Decodes and checks a result for `genomes` genomes of `length` genes.
+    pub fn decode(
+        bytes: &[u8],
+        method: Method,
+        genomes: usize,
+        length: usize,
+    ) -> Result<ChunkResult, WireError> {
+        let r: ChunkResult =
+            postcard::from_bytes(bytes).map_err(|e| WireError::Decode(e.to_string()))?;
+        if r.evaluations.len() != genomes {
+            return Err(WireError::Count {
+                expected: genomes,
+                got: r.evaluations.len(),
+            });
+        }
+        if let Some(i) = r.evaluations.iter().position(|e| !e.is_plausible()) {
+            return Err(WireError::Implausible(i));
+        }
+        let expected = if method == Method::Guided {
+            genomes * length
+        } else {
+            0
+        };
+        if r.actions.len() != expected {
+            return Err(WireError::Length {
+                genomes: genomes as u32,
+                length: length as u32,
+                expected,
+                got: r.actions.len(),
+            });
+        }
+        if let Some(index) = r.actions.iter().position(|&a| a > 3) {
+            return Err(WireError::Action {
+                index,
+                action: r.actions[index],
+            });
+        }
+        Ok(r)
+    }
+}
+
+#[cfg(test)]
+mod tests;

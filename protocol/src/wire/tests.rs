@@ -1,0 +1,123 @@
+//! The checks on jobs and results refuse everything they should.
+
+use super::*;
+use crate::{Outcome, State};
+
+fn header(genomes: u32, length: u32) -> JobHeader {
+    JobHeader {
+        version: PROTOCOL_VERSION,
+        method: Method::Guided.code(),
+        genomes,
+        genome_length: length,
+        max_duration: 30,
+        ..JobHeader::default()
+    }
+}
+
+fn gene(action: u8, duration: u8) -> WireGene {
+    WireGene { action, duration }
+}
+
+#[test]
+fn a_good_job_decodes() {
+    let job = Job::from_wire(
+        &header(2, 2),
+        &[gene(0, 1), gene(3, 30), gene(2, 0), gene(1, 5)],
+    )
+    .unwrap();
+    assert_eq!(job.genes.len(), 4);
+    assert_eq!(job.genes[1], Gene::new(Action::Drift, 30));
+}
+
+#[test]
+fn bad_jobs_are_refused() {
+    let genes = [gene(0, 1), gene(1, 1)];
+    let mut h = header(1, 2);
+    h.version = PROTOCOL_VERSION + 1;
+    assert_eq!(
+        Job::from_wire(&h, &genes),
+        Err(WireError::Version {
+            got: PROTOCOL_VERSION + 1
+        })
+    );
+    let mut h = header(1, 2);
+    h.method = 9;
+    assert_eq!(Job::from_wire(&h, &genes), Err(WireError::Method(9)));
+    assert!(matches!(
+        Job::from_wire(&header(2, 2), &genes),
+        Err(WireError::Length { .. })
+    ));
+    assert!(matches!(
+        Job::from_wire(&header(1, 2), &[gene(0, 1), gene(4, 1)]),
+        Err(WireError::Action {
+            index: 1,
+            action: 4
+        })
+    ));
+    assert!(matches!(
+        Job::from_wire(&header(1, 2), &[gene(0, 31), gene(1, 1)]),
+        Err(WireError::Duration { index: 0, .. })
+    ));
+}
+
+fn evaluation(fitness: f64) -> Evaluation {
+    Evaluation {
+        outcome: Outcome {
+            state: State {
+                x: 1.0,
+                y: 60.0,
+                vx: 0.1,
+                vy: -0.2,
+                rot: 0.0,
+            },
+            ticks: 100,
+            n: 90,
+            touched_down: true,
+            safe: false,
+            fitness,
+        },
+        simulated_ticks: 400,
+    }
+}
+
+#[test]
+fn results_round_trip_and_bad_ones_are_refused() {
+    let good = ChunkResult {
+        evaluations: vec![evaluation(500.0); 2],
+        actions: vec![0, 1, 2, 3],
+    };
+    let bytes = good.encode();
+    assert_eq!(
+        ChunkResult::decode(&bytes, Method::Guided, 2, 2),
+        Ok(good.clone())
+    );
+    assert!(matches!(
+        ChunkResult::decode(&bytes, Method::Guided, 3, 2),
+        Err(WireError::Count { .. })
+    ));
+    assert!(matches!(
+        ChunkResult::decode(&bytes, Method::Ga, 2, 2),
+        Err(WireError::Length { .. })
+    ));
+    assert!(matches!(
+        ChunkResult::decode(&bytes[..bytes.len() - 3], Method::Guided, 2, 2),
+        Err(WireError::Decode(_))
+    ));
+
+    let nan = ChunkResult {
+        evaluations: vec![evaluation(500.0), evaluation(f64::NAN)],
+        actions: vec![0; 4],
+    };
+    assert_eq!(
+        ChunkResult::decode(&nan.encode(), Method::Guided, 2, 2),
+        Err(WireError::Implausible(1))
+    );
+    let action = ChunkResult {
+        evaluations: vec![evaluation(1.0); 2],
+        actions: vec![0, 1, 7, 3],
+    };
+    assert!(matches!(
+        ChunkResult::decode(&action.encode(), Method::Guided, 2, 2),
+        Err(WireError::Action { index: 2, .. })
+    ));
+}

@@ -1,0 +1,280 @@
+//! The evaluator pool between real processes over iceoryx2: identical
+//! results whatever the worker count, and no lost work when workers die,
+//! hang, or come and go.
+
+use lander_tests::{
+    children_of, json_out, lines_in, signal, stderr, wait_until, without_wall_time, Iox,
+};
+use serde_json::Value;
+use std::fs;
+use std::path::Path;
+use std::process::{Child, Stdio};
+
+/// A run long enough to disturb: landing is made impossible, so it flies
+/// exactly 3 × 150 generations of 300 guided genomes.
+const LONG: &[&str] = &[
+    "--method",
+    "guided",
+    "--seed",
+    "7",
+    "--population",
+    "300",
+    "--max-generations",
+    "150",
+    "--max-restarts",
+    "2",
+    "--json",
+];
+
+fn never_lands(dir: &Path) -> String {
+    let path = dir.join("never-lands.toml");
+    fs::write(&path, "[scoring]\nsafe_speed = 0.0\n").unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+/// Runs `lander run` to the end and returns its summary and log.
+fn finished(iox: &Iox, out: &Path, extra: &[&str]) -> (Value, Vec<u8>) {
+    let mut args = vec!["run", "--out", out.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let summary = without_wall_time(json_out(&iox.lander(&args)));
+    (summary, fs::read(out.join("generations.jsonl")).unwrap())
+}
+
+fn start(iox: &Iox, out: &Path, extra: &[&str]) -> Child {
+    iox.command("lander")
+        .args(["run", "--out", out.to_str().unwrap()])
+        .args(extra)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+fn summary_of(child: Child) -> Value {
+    let out = child.wait_with_output().unwrap();
+    without_wall_time(json_out(&out))
+}
+
+#[test]
+fn results_are_byte_identical_for_0_1_2_and_3_workers() {
+    let iox = Iox::new("counts");
+    for method in ["ga", "guided"] {
+        let args = [
+            "--method",
+            method,
+            "--seed",
+            "3",
+            "--max-generations",
+            "60",
+            "--max-restarts",
+            "0",
+            "--json",
+        ];
+        let mut runs = Vec::new();
+        for workers in ["0", "1", "2", "3"] {
+            let dir = tempfile::tempdir().unwrap();
+            let mut a = args.to_vec();
+            a.extend(["--workers", workers]);
+            runs.push(finished(&iox, dir.path(), &a));
+        }
+        for (i, run) in runs.iter().enumerate().skip(1) {
+            assert_eq!(
+                run.0, runs[0].0,
+                "{method}: summary with {i} workers differs"
+            );
+            assert!(
+                run.1 == runs[0].1,
+                "{method}: generations.jsonl with {i} workers differs"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_clean_run_leaves_no_processes_and_no_files() {
+    let iox = Iox::new("clean");
+    let dir = tempfile::tempdir().unwrap();
+    let child = start(
+        &iox,
+        dir.path(),
+        &["--seed", "2", "--workers", "2", "--json"],
+    );
+    let pid = child.id();
+    let mut seen = Vec::new();
+    wait_until(20, || {
+        seen = children_of(pid, "lander-worker");
+        seen.len() == 2
+    });
+    assert_eq!(seen.len(), 2, "two workers were spawned");
+    summary_of(child);
+    for worker in seen {
+        assert!(
+            !Path::new(&format!("/proc/{worker}")).exists(),
+            "worker {worker} outlived the run"
+        );
+    }
+    assert_eq!(iox.shm_files(), Vec::<String>::new());
+    assert_eq!(iox.root_files(), Vec::<std::path::PathBuf>::new());
+}
+
+/// Runs LONG over two spawned workers, doing `disturb` to them once 40
+/// generations are written, and checks the results match an undisturbed
+/// in-process run.
+fn survives(test: &str, extra: &[&str], reported: &str, disturb: impl Fn(&[u32])) {
+    let iox = Iox::new(test);
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = never_lands(dir.path());
+    let calm_dir = tempfile::tempdir().unwrap();
+    let mut calm = LONG.to_vec();
+    calm.extend(["--config", &cfg]);
+    let expected = finished(&iox, calm_dir.path(), &calm);
+
+    let mut args = calm.clone();
+    args.extend(["--workers", "2"]);
+    args.extend_from_slice(extra);
+    let child = start(&iox, dir.path(), &args);
+    let log = dir.path().join("generations.jsonl");
+    assert!(
+        wait_until(60, || lines_in(&log) >= 40),
+        "the run did not get going"
+    );
+    let workers = children_of(child.id(), "lander-worker");
+    assert_eq!(workers.len(), 2);
+    disturb(&workers);
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let got = (without_wall_time(json_out(&out)), fs::read(&log).unwrap());
+    assert_eq!(got.0, expected.0);
+    assert!(
+        got.1 == expected.1,
+        "generations.jsonl differs from the undisturbed run"
+    );
+    assert_eq!(got.0["generations"], 450);
+    assert!(
+        stderr(&out).contains(reported),
+        "the pool did not report {reported:?}: {}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn a_worker_killed_mid_run_loses_no_work() {
+    survives("kill_one", &[], "exited", |w| signal(w[0], "KILL"));
+}
+
+#[test]
+fn every_worker_killed_once_loses_no_work() {
+    survives("kill_all", &[], "exited", |w| {
+        for &pid in w {
+            signal(pid, "KILL");
+        }
+    });
+}
+
+#[test]
+fn a_hung_worker_misses_its_deadline_and_loses_no_work() {
+    survives("hang", &["--deadline", "1"], "missed its deadline", |w| signal(w[0], "STOP"));
+}
+
+#[test]
+fn attached_workers_may_leave_mid_run() {
+    let iox = Iox::new("attach");
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = never_lands(dir.path());
+    let mut args = LONG.to_vec();
+    args.extend(["--config", &cfg]);
+    let calm_dir = tempfile::tempdir().unwrap();
+    let expected = finished(&iox, calm_dir.path(), &args);
+
+    let run_id = format!("attach{}", std::process::id());
+    let mut attached = args.clone();
+    attached.extend(["--attach", "--run-id", &run_id]);
+    let coordinator = start(&iox, dir.path(), &attached);
+    let worker = || {
+        iox.command("lander-worker")
+            .args(["--run", &run_id])
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let (first, second) = (worker(), worker());
+    let log = dir.path().join("generations.jsonl");
+    assert!(
+        wait_until(60, || lines_in(&log) >= 40),
+        "the run did not get going"
+    );
+    signal(first.id(), "TERM");
+    let first = first.wait_with_output().unwrap();
+    assert!(
+        first.status.success(),
+        "a worker stops cleanly on SIGTERM: {}",
+        stderr(&first)
+    );
+    assert!(stderr(&first).contains("stopped by signal"));
+
+    let out = coordinator.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stderr(&out).contains(&format!("lander-worker --run {run_id}")));
+    assert_eq!(without_wall_time(json_out(&out)), expected.0);
+    assert!(fs::read(&log).unwrap() == expected.1);
+    let second = second.wait_with_output().unwrap();
+    assert!(second.status.success());
+    assert!(
+        stderr(&second).contains("run finished"),
+        "{}",
+        stderr(&second)
+    );
+}
+
+#[test]
+fn a_worker_for_a_missing_run_waits_and_says_so() {
+    let iox = Iox::new("missing");
+    let dir = tempfile::tempdir().unwrap();
+    let err = dir.path().join("stderr");
+    let child = iox
+        .command("lander-worker")
+        .args(["--run", "nosuchrun"])
+        .stderr(fs::File::create(&err).unwrap())
+        .spawn()
+        .unwrap();
+    let said = || fs::read_to_string(&err).unwrap_or_default();
+    assert!(
+        wait_until(10, || said().contains("waiting for run nosuchrun")),
+        "{}",
+        said()
+    );
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    signal(child.id(), "TERM");
+    let status = child.wait_with_output().unwrap().status;
+    assert!(
+        status.success(),
+        "it waits rather than crashing, and stops cleanly"
+    );
+}
+
+#[test]
+fn bad_worker_options_are_refused() {
+    let iox = Iox::new("badopts");
+    for (args, needle) in [
+        (vec!["run", "--workers", "two"], "--workers"),
+        (vec!["run", "--workers", "-1"], "unexpected argument '-1'"),
+        (vec!["run", "--workers", "1000"], "at most 128"),
+        (vec!["run", "--workers", "2", "--attach"], "--attach"),
+        (vec!["run", "--attach", "--run-id", "bad id!"], "--run-id"),
+        (
+            vec!["run", "--workers", "1", "--deadline", "0"],
+            "--deadline",
+        ),
+    ] {
+        let out = iox.lander(&args);
+        assert!(!out.status.success(), "{args:?} was accepted");
+        assert!(stderr(&out).contains(needle), "{args:?}: {}", stderr(&out));
+    }
+    let out = iox
+        .command("lander-worker")
+        .args(["--run", "a/b"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("--run"));
+}

@@ -1,0 +1,204 @@
+//! The worker process's loop: announce itself to a run, then serve jobs
+//! from its own iceoryx2 services until the run ends or a signal arrives.
+//! It sleeps in a WaitSet between jobs and never spins.
+
+use crate::evaluate::run_job;
+use iceoryx2::prelude::*;
+use iceoryx2::waitset::WaitSetRunResult;
+use lander_protocol::iox::{self, IpcError, RunNames, SHUTDOWN_EVENT};
+use lander_protocol::wire::{
+    Job, ResultHeader, Status, WireError, WorkerAnnounce, PROTOCOL_VERSION,
+};
+use std::cell::{Cell, RefCell};
+use std::time::Duration;
+
+/// How often an idle worker looks around: re-announces itself until it has
+/// work, reaps dead nodes, and checks its coordinator is still there.
+const HOUSEKEEPING: Duration = Duration::from_millis(500);
+
+/// Why a worker stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Exit {
+    /// The coordinator said the run is over.
+    RunFinished,
+    /// The coordinator's node is gone.
+    CoordinatorGone,
+    /// SIGINT or SIGTERM.
+    Signal,
+}
+
+/// Serves run `run` as worker `id`, telling the user through `say`.
+pub fn serve(run: &str, id: u64, say: &dyn Fn(&str)) -> Result<Exit, IpcError> {
+    iox::quiet_logs();
+    let config = iox::config()?;
+    let names = RunNames::new(run);
+    let node = iox::node(
+        &format!("lander-worker-{id:016x}"),
+        &config,
+        SignalHandlingMode::HandleTerminationRequests,
+    )?;
+    // Install the signal handler now, so SIGTERM while waiting ends cleanly.
+    if node.wait(Duration::ZERO).is_err() {
+        return Ok(Exit::Signal);
+    }
+    if !wait_for_run(&node, &names, &config, say)? {
+        return Ok(Exit::Signal);
+    }
+
+    let eval = iox::eval_service(&node, &names.eval(id))?;
+    let server = eval
+        .server_builder()
+        .initial_max_slice_len(4096)
+        .allocation_strategy(AllocationStrategy::PowerOfTwo)
+        .create()
+        .map_err(iox::fail("creating the evaluation server"))?;
+    let jobs = iox::event_service(&node, &names.jobs(id))?
+        .listener_builder()
+        .create()
+        .map_err(iox::fail("listening for jobs"))?;
+    let wake_service = iox::event_service(&node, &names.wake())?;
+    let wake = wake_service
+        .notifier_builder()
+        .create()
+        .map_err(iox::fail("creating the wake notifier"))?;
+    let announcer = iox::register_service(&node, &names.register())?
+        .publisher_builder()
+        .create()
+        .map_err(iox::fail("creating the announcer"))?;
+    let announce = || -> Result<(), IpcError> {
+        let me = WorkerAnnounce {
+            version: PROTOCOL_VERSION,
+            pid: std::process::id(),
+            worker_id: id,
+        };
+        announcer.send_copy(me).map_err(iox::fail("announcing"))?;
+        wake.notify().map_err(iox::fail("waking the coordinator"))?;
+        Ok(())
+    };
+    announce()?;
+    say(&format!("serving run {run} as worker {id:016x}"));
+
+    let waitset = WaitSetBuilder::new()
+        .create::<ipc::Service>()
+        .map_err(iox::fail("creating the wait set"))?;
+    let job_guard = waitset
+        .attach_notification(&jobs)
+        .map_err(iox::fail("waiting on jobs"))?;
+    let tick = waitset
+        .attach_interval(HOUSEKEEPING)
+        .map_err(iox::fail("attaching the housekeeping interval"))?;
+
+    let served = Cell::new(false);
+    let outcome: RefCell<Result<Option<Exit>, IpcError>> = RefCell::new(Ok(None));
+    let stop = |r: Result<Option<Exit>, IpcError>| {
+        *outcome.borrow_mut() = r;
+        CallbackProgression::Stop
+    };
+    let on_event = |attachment: WaitSetAttachmentId<ipc::Service>| {
+        if attachment.has_event_from(&job_guard) {
+            let mut shutdown = false;
+            if let Err(e) = jobs.try_wait(|ev| shutdown |= ev.id.as_value() == SHUTDOWN_EVENT) {
+                return stop(Err(iox::fail("reading job events")(e)));
+            }
+            if shutdown {
+                return stop(Ok(Some(Exit::RunFinished)));
+            }
+            match serve_waiting(&server, id, say) {
+                Ok(0) => {}
+                Ok(_) => {
+                    served.set(true);
+                    if let Err(e) = wake.notify() {
+                        return stop(Err(iox::fail("waking the coordinator")(e)));
+                    }
+                }
+                Err(e) => return stop(Err(e)),
+            }
+        } else if attachment.has_event_from(&tick) {
+            node.try_cleanup_dead_nodes();
+            if wake_service.dynamic_config().number_of_listeners() == 0 {
+                return stop(Ok(Some(Exit::CoordinatorGone)));
+            }
+            if !served.get() {
+                if let Err(e) = announce() {
+                    return stop(Err(e));
+                }
+            }
+        }
+        CallbackProgression::Continue
+    };
+    let result = waitset
+        .wait_and_process(on_event)
+        .map_err(iox::fail("waiting for jobs"))?;
+    let exit = outcome.into_inner()?;
+    Ok(exit.unwrap_or(match result {
+        WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt => Exit::Signal,
+        _ => Exit::RunFinished,
+    }))
+}
+
+/// Waits until the run's coordinator exists. False on a signal.
+fn wait_for_run(
+    node: &Node<ipc::Service>,
+    names: &RunNames,
+    config: &Config,
+    say: &dyn Fn(&str),
+) -> Result<bool, IpcError> {
+    let mut told = false;
+    while !iox::run_exists(names, config)? {
+        if !told {
+            say(&format!(
+                "waiting for run {}: no coordinator has started it yet \
+                 (start one with `lander run --attach --run-id {}`)",
+                names.run(),
+                names.run()
+            ));
+            told = true;
+        }
+        if node.wait(Duration::from_millis(200)).is_err() {
+            return Ok(false);
+        }
+    }
+    Ok(true)
+}
+
+type Server = iceoryx2::port::server::Server<
+    ipc::Service,
+    [lander_protocol::wire::WireGene],
+    lander_protocol::wire::JobHeader,
+    [u8],
+    ResultHeader,
+>;
+
+/// Answers every request waiting at the server; returns how many.
+fn serve_waiting(server: &Server, id: u64, say: &dyn Fn(&str)) -> Result<usize, IpcError> {
+    let mut answered = 0;
+    while let Some(request) = server.receive().map_err(iox::fail("receiving a job"))? {
+        let header = *request.user_header();
+        let (status, body) = match Job::from_wire(&header, request.payload()) {
+            Ok(job) => (Status::Done, run_job(&job).encode()),
+            Err(e) => {
+                say(&format!("refusing job {}: {e}", header.job_id));
+                let status = match e {
+                    WireError::Version { .. } => Status::WrongVersion,
+                    _ => Status::BadJob,
+                };
+                (status, e.to_string().into_bytes())
+            }
+        };
+        let mut response = request
+            .loan_slice_uninit(body.len())
+            .map_err(iox::fail("loaning a response"))?;
+        *response.user_header_mut() = ResultHeader {
+            version: PROTOCOL_VERSION,
+            status: status as u32,
+            job_id: header.job_id,
+            worker_id: id,
+        };
+        response
+            .write_from_slice(&body)
+            .send()
+            .map_err(iox::fail("sending a result"))?;
+        answered += 1;
+    }
+    Ok(answered)
+}
