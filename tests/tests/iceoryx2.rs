@@ -173,7 +173,9 @@ fn every_worker_killed_once_loses_no_work() {
 
 #[test]
 fn a_hung_worker_misses_its_deadline_and_loses_no_work() {
-    survives("hang", &["--deadline", "1"], "missed its deadline", |w| signal(w[0], "STOP"));
+    survives("hang", &["--deadline", "1"], "missed its deadline", |w| {
+        signal(w[0], "STOP")
+    });
 }
 
 #[test]

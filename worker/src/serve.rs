@@ -103,14 +103,14 @@ pub fn serve(run: &str, id: u64, say: &dyn Fn(&str)) -> Result<Exit, IpcError> {
             if shutdown {
                 return stop(Ok(Some(Exit::RunFinished)));
             }
-            match serve_waiting(&server, id, say) {
+            let answered = || {
+                wake.notify()
+                    .map(|_| ())
+                    .map_err(iox::fail("waking the coordinator"))
+            };
+            match serve_waiting(&server, id, say, answered) {
                 Ok(0) => {}
-                Ok(_) => {
-                    served.set(true);
-                    if let Err(e) = wake.notify() {
-                        return stop(Err(iox::fail("waking the coordinator")(e)));
-                    }
-                }
+                Ok(_) => served.set(true),
                 Err(e) => return stop(Err(e)),
             }
         } else if attachment.has_event_from(&tick) {
@@ -169,9 +169,15 @@ type Server = iceoryx2::port::server::Server<
     ResultHeader,
 >;
 
-/// Answers every request waiting at the server; returns how many.
-fn serve_waiting(server: &Server, id: u64, say: &dyn Fn(&str)) -> Result<usize, IpcError> {
-    let mut answered = 0;
+/// Answers every request waiting at the server, calling `answered` after
+/// each so the coordinator can queue more; returns how many.
+fn serve_waiting(
+    server: &Server,
+    id: u64,
+    say: &dyn Fn(&str),
+    answered: impl Fn() -> Result<(), IpcError>,
+) -> Result<usize, IpcError> {
+    let mut count = 0;
     while let Some(request) = server.receive().map_err(iox::fail("receiving a job"))? {
         let header = *request.user_header();
         let (status, body) = match Job::from_wire(&header, request.payload()) {
@@ -198,7 +204,8 @@ fn serve_waiting(server: &Server, id: u64, say: &dyn Fn(&str)) -> Result<usize, 
             .write_from_slice(&body)
             .send()
             .map_err(iox::fail("sending a result"))?;
-        answered += 1;
+        answered()?;
+        count += 1;
     }
-    Ok(answered)
+    Ok(count)
 }

@@ -12,8 +12,13 @@ use lander_protocol::wire::{
     PROTOCOL_VERSION,
 };
 use lander_protocol::Method;
+use std::collections::VecDeque;
 use std::ops::Range;
 use std::time::{Duration, Instant};
+
+/// Chunks queued at a worker at once, so it never waits for a round trip
+/// between one chunk and the next.
+pub const DEPTH: usize = 2;
 
 type EvalClient = Client<ipc::Service, [WireGene], JobHeader, [u8], ResultHeader>;
 type Pending = PendingResponse<ipc::Service, [WireGene], JobHeader, [u8], ResultHeader>;
@@ -30,21 +35,9 @@ pub struct Link {
     pub pid: u32,
     client: EvalClient,
     jobs: Notifier<ipc::Service>,
-    busy: Option<InFlight>,
+    /// Oldest first; the worker answers in order.
+    busy: VecDeque<InFlight>,
     broken: bool,
-}
-
-/// What a look at a link found.
-pub enum Poll {
-    Idle,
-    Busy,
-    Answered {
-        chunk: usize,
-        result: ChunkResult,
-    },
-    /// The worker answered something unusable; the link is now broken and
-    /// its chunk will be flown elsewhere.
-    Refused(String),
 }
 
 impl Link {
@@ -69,13 +62,14 @@ impl Link {
             pid: w.pid,
             client,
             jobs,
-            busy: None,
+            busy: VecDeque::new(),
             broken: false,
         })
     }
 
-    pub fn is_idle(&self) -> bool {
-        self.busy.is_none() && !self.broken
+    /// True while the worker can queue another chunk.
+    pub fn has_room(&self) -> bool {
+        self.busy.len() < DEPTH && !self.broken
     }
 
     pub fn is_broken(&self) -> bool {
@@ -83,16 +77,16 @@ impl Link {
     }
 
     pub fn deadline(&self) -> Option<Instant> {
-        self.busy.as_ref().map(|f| f.deadline)
+        self.busy.iter().map(|f| f.deadline).min()
     }
 
     pub fn overdue(&self, now: Instant) -> bool {
         self.deadline().is_some_and(|d| now >= d)
     }
 
-    /// Gives up on the chunk in flight, returning it.
-    pub fn abandon(&mut self) -> Option<usize> {
-        self.busy.take().map(|f| f.chunk)
+    /// Gives up on the chunks in flight, returning them.
+    pub fn abandon(&mut self) -> Vec<usize> {
+        self.busy.drain(..).map(|f| f.chunk).collect()
     }
 
     /// Sends genomes `range` of the batch as chunk `chunk`.
@@ -140,7 +134,7 @@ impl Link {
         })();
         match sent {
             Ok(pending) => {
-                self.busy = Some(InFlight {
+                self.busy.push_back(InFlight {
                     job_id,
                     chunk,
                     pending,
@@ -155,37 +149,49 @@ impl Link {
         }
     }
 
-    /// Looks for the answer to the chunk in flight.
-    pub fn poll(&mut self, method: Method, length: usize, ranges: &[Range<usize>]) -> Poll {
-        let Some(flight) = &self.busy else {
-            return Poll::Idle;
-        };
-        let answer = match flight.pending.receive() {
-            Ok(Some(response)) => check(
-                flight,
-                response.user_header(),
-                response.payload(),
-                method,
-                ranges[flight.chunk].len(),
-                length,
-            ),
-            Ok(None) if flight.pending.is_connected() => return Poll::Busy,
-            Ok(None) | Err(_) => {
-                self.broken = true;
-                return Poll::Busy;
-            }
-        };
-        match answer {
-            Ok(result) => {
-                let chunk = flight.chunk;
-                self.busy = None;
-                Poll::Answered { chunk, result }
-            }
-            Err(e) => {
-                self.broken = true;
-                Poll::Refused(e)
+    /// Collects the answers that arrived, as `(chunk, result)`. An answer
+    /// that fails its checks breaks the link and comes back as `Err`; the
+    /// chunks still in flight are then flown elsewhere.
+    pub fn poll(
+        &mut self,
+        method: Method,
+        length: usize,
+        ranges: &[Range<usize>],
+    ) -> Result<Vec<(usize, ChunkResult)>, String> {
+        let mut answered = Vec::new();
+        let mut i = 0;
+        while i < self.busy.len() {
+            let flight = &self.busy[i];
+            let answer = match flight.pending.receive() {
+                Ok(Some(response)) => check(
+                    flight,
+                    response.user_header(),
+                    response.payload(),
+                    method,
+                    ranges[flight.chunk].len(),
+                    length,
+                ),
+                Ok(None) if flight.pending.is_connected() => {
+                    i += 1;
+                    continue;
+                }
+                Ok(None) | Err(_) => {
+                    self.broken = true;
+                    break;
+                }
+            };
+            match answer {
+                Ok(result) => {
+                    answered.push((flight.chunk, result));
+                    self.busy.remove(i);
+                }
+                Err(e) => {
+                    self.broken = true;
+                    return Err(e);
+                }
             }
         }
+        Ok(answered)
     }
 
     /// Tells the worker the run is over.

@@ -19,7 +19,7 @@ use iceoryx2::prelude::*;
 use lander_protocol::iox::{self, RunNames};
 use lander_protocol::wire::{ChunkResult, WorkerAnnounce, PROTOCOL_VERSION};
 use lander_protocol::{Action, Evaluation};
-use link::{Link, Poll};
+use link::Link;
 use spawn::Children;
 use std::collections::VecDeque;
 use std::ops::Range;
@@ -166,13 +166,16 @@ impl IpcPool {
             if !gone(link) {
                 return true;
             }
-            let requeued = link.abandon().inspect(|&chunk| todo.push_front(chunk));
-            dropped.push((link.id, requeued.is_some()));
+            let chunks = link.abandon();
+            for &chunk in chunks.iter().rev() {
+                todo.push_front(chunk);
+            }
+            dropped.push((link.id, !chunks.is_empty()));
             false
         });
         for (id, requeued) in dropped {
             let then = if requeued {
-                "; its chunk goes to another worker"
+                "; its chunks go to other workers"
             } else {
                 ""
             };
@@ -233,19 +236,19 @@ impl Evaluator for IpcPool {
             self.reap(&mut todo)?;
             for link in &mut self.links {
                 match link.poll(batch.method, length, &ranges) {
-                    Poll::Idle | Poll::Busy => {}
-                    Poll::Answered { chunk, result } => {
-                        if done[chunk].is_none() {
-                            done[chunk] = Some(result);
-                            remaining -= 1;
+                    Ok(answers) => {
+                        for (chunk, result) in answers {
+                            // A chunk flown twice keeps its first answer.
+                            if done[chunk].is_none() {
+                                done[chunk] = Some(result);
+                                remaining -= 1;
+                            }
                         }
                     }
-                    Poll::Refused(e) => {
-                        (self.say)(&format!(
-                            "refusing a result from worker {:016x}: {e}",
-                            link.id
-                        ));
-                    }
+                    Err(e) => (self.say)(&format!(
+                        "refusing a result from worker {:016x}: {e}",
+                        link.id
+                    )),
                 }
             }
             self.drop_links(&mut todo, Link::is_broken, "disconnected");
@@ -253,14 +256,16 @@ impl Evaluator for IpcPool {
                 break;
             }
             todo.retain(|&c| done[c].is_none());
-            for link in self.links.iter_mut().filter(|l| l.is_idle()) {
-                let Some(chunk) = todo.pop_front() else { break };
-                let job_id = self.next_job;
-                self.next_job += 1;
-                let range = ranges[chunk].clone();
-                if let Err(e) = link.send(&batch, job_id, chunk, range, self.opts.deadline) {
-                    (self.say)(&format!("cannot send to worker {:016x}: {e}", link.id));
-                    todo.push_front(chunk);
+            for link in &mut self.links {
+                while link.has_room() {
+                    let Some(chunk) = todo.pop_front() else { break };
+                    let job_id = self.next_job;
+                    self.next_job += 1;
+                    let range = ranges[chunk].clone();
+                    if let Err(e) = link.send(&batch, job_id, chunk, range, self.opts.deadline) {
+                        (self.say)(&format!("cannot send to worker {:016x}: {e}", link.id));
+                        todo.push_front(chunk);
+                    }
                 }
             }
             self.drop_links(&mut todo, Link::is_broken, "disconnected");
