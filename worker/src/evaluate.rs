@@ -1,7 +1,7 @@
 //! One genome under one method: what a worker does for each genome of a job.
 
 use crate::guide::guide_in_place;
-use crate::sim::fly;
+use crate::sim::{fly, Physics};
 use lander_protocol::stream::streams;
 use lander_protocol::wire::{ChunkResult, Job};
 use lander_protocol::{Env, Evaluation, Gene, GuideParams, Method, StreamKey};
@@ -27,10 +27,10 @@ pub fn evaluate(
         }
         Method::Guided => {
             let mut rng = key.rng(streams::guide(index));
-            let (mut lander, looked_ahead) = guide_in_place(env, guide, genes, &mut rng);
-            let n = lander.ticks;
-            lander.drift_to_end();
-            let outcome = lander.outcome(env, n);
+            let (mut flight, looked_ahead) = guide_in_place(env, guide, genes, &mut rng);
+            let n = flight.ticks;
+            flight.drift_to_end(&Physics::new(env));
+            let outcome = flight.outcome(env, n);
             Evaluation {
                 outcome,
                 simulated_ticks: looked_ahead + u64::from(outcome.ticks - n),

@@ -3,12 +3,12 @@
 //! state scores best under R.
 
 use crate::score::{is_safe, reinforcement};
-use crate::sim::Lander;
+use crate::sim::{Flight, Physics};
 use lander_protocol::{Action, Env, Gene, GuideParams};
 use rand::Rng;
 
 /// Improves `genes` in place. Only actions change, never durations or the
-/// length. Returns the lander as it stands after the last gene flown, which
+/// length. Returns the flight as it stands after the last gene flown, which
 /// is exactly the state that flying the new genome would reach there, and
 /// the number of ticks simulated to find it.
 pub fn guide_in_place(
@@ -16,28 +16,28 @@ pub fn guide_in_place(
     params: &GuideParams,
     genes: &mut [Gene],
     rng: &mut impl Rng,
-) -> (Lander, u64) {
-    let mut lander = Lander::new(env);
+) -> (Flight, u64) {
+    let p = Physics::new(env);
+    let mut flight = Flight::start(env);
     let mut simulated = 0u64;
     for gene in genes.iter_mut() {
         let d = u32::from(gene.duration);
-        let options = Action::ALL.map(|a| {
-            let mut option = lander;
-            simulated += u64::from(option.run(a, d));
-            option
-        });
+        let mut options = [flight; 4];
+        for (option, a) in options.iter_mut().zip(Action::ALL) {
+            simulated += u64::from(option.run(&p, a, d));
+        }
         let best = best_action(env, params, &options);
         let chosen = &options[usize::from(best.index())];
         let safe = chosen.touched_down() && is_safe(env, &chosen.state);
         if safe || (best != gene.action && rng.random::<f64>() >= params.epsilon) {
             gene.action = best;
         }
-        lander = options[usize::from(gene.action.index())];
-        if lander.ended() {
+        flight = options[usize::from(gene.action.index())];
+        if flight.ended(&p) {
             break;
         }
     }
-    (lander, simulated)
+    (flight, simulated)
 }
 
 /// The guided pass as a function: `guide(env, params, genome, rng) -> genome'`.
@@ -48,7 +48,7 @@ pub fn guide(env: &Env, params: &GuideParams, genes: &[Gene], rng: &mut impl Rng
 }
 
 /// The action whose resulting state maximises R; the lowest index on a tie.
-fn best_action(env: &Env, params: &GuideParams, options: &[Lander; 4]) -> Action {
+fn best_action(env: &Env, params: &GuideParams, options: &[Flight; 4]) -> Action {
     let mut best = Action::RotateLeft;
     let mut best_r = f64::NEG_INFINITY;
     for (action, option) in Action::ALL.into_iter().zip(options) {
@@ -90,16 +90,16 @@ mod tests {
     /// Walks the guided genome independently of the pass and returns, per
     /// gene flown, the options' best action and whether it was a safe landing.
     fn oracle(env: &Env, p: &GuideParams, guided: &[Gene]) -> Vec<(Action, bool)> {
-        let mut at = Lander::new(env);
+        let mut at = crate::sim::Lander::new(env);
         let mut seen = Vec::new();
         for gene in guided {
             let mut best = (f64::NEG_INFINITY, Action::Drift, false);
             for a in Action::ALL {
                 let mut o = at;
                 o.run(a, u32::from(gene.duration));
-                let r = reinforcement(env, p, &o.state);
+                let r = reinforcement(env, p, &o.state());
                 if r > best.0 {
-                    best = (r, a, o.touched_down() && is_safe(env, &o.state));
+                    best = (r, a, o.touched_down() && is_safe(env, &o.state()));
                 }
             }
             seen.push((best.1, best.2));

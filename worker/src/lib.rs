@@ -20,4 +20,4 @@ pub mod sim;
 pub use evaluate::{evaluate, run_job};
 pub use guide::guide;
 pub use lander_protocol::{Evaluation, Method, Outcome, State};
-pub use sim::{fly, fly_traced, Lander, HULL, HULL_RADIUS};
+pub use sim::{fly, fly_traced, Flight, Lander, Physics, HULL, HULL_RADIUS};

@@ -52,9 +52,46 @@ pub const HULL: [(f64, f64); 30] = [
     (0.2, -0.5),
 ];
 
-/// A lander in flight, with the constants of its world unpacked.
+/// The constants of a world, unpacked once for the flight loop.
 #[derive(Clone, Copy, Debug)]
-pub struct Lander {
+pub struct Physics {
+    width: f64,
+    ground_y: f64,
+    /// Above this centre height no hull point can be below the ground.
+    clear_y: f64,
+    hull_scale: f64,
+    /// The hull's radius in pixels: no point moves faster than this per
+    /// radian of rotation.
+    reach: f64,
+    rotation_step: f64,
+    thrust: f64,
+    gravity: f64,
+    max_ticks: u32,
+}
+
+impl Physics {
+    pub fn new(env: &Env) -> Physics {
+        let w = &env.world;
+        let reach = w.hull_scale.abs() * HULL_RADIUS;
+        Physics {
+            width: w.width,
+            ground_y: w.ground_y,
+            clear_y: w.ground_y + reach * 1.001 + 1e-9,
+            hull_scale: w.hull_scale,
+            reach,
+            rotation_step: w.rotation_step,
+            thrust: w.thrust_per_tick(),
+            gravity: w.gravity_per_tick(),
+            max_ticks: w.max_ticks,
+        }
+    }
+}
+
+/// A flight in progress: the state and the cached functions of its
+/// rotation. Small and `Copy`, so the guided pass can branch it four ways
+/// per gene cheaply; the constants stay behind in [`Physics`].
+#[derive(Clone, Copy, Debug)]
+pub struct Flight {
     pub state: State,
     pub ticks: u32,
     touched_down: bool,
@@ -65,61 +102,34 @@ pub struct Lander {
     // The lowest hull point's offset from the centre at `hull_rot`.
     hull_rot: f64,
     hull_low: f64,
-    /// The hull's radius in pixels: no point moves faster than this per
-    /// radian of rotation.
-    reach: f64,
-    // Constants of the world.
-    width: f64,
-    ground_y: f64,
-    /// Above this centre height no hull point can be below the ground.
-    clear_y: f64,
-    hull_scale: f64,
-    rotation_step: f64,
-    thrust: f64,
-    gravity: f64,
-    max_ticks: u32,
 }
 
-impl Lander {
-    /// A lander at the start of a flight: upside down, at rest, at
-    /// `(x0, H - 50)`.
-    pub fn new(env: &Env) -> Lander {
-        let w = &env.world;
-        let reach = w.hull_scale.abs() * HULL_RADIUS;
-        Lander {
-            state: State {
+impl Flight {
+    /// The start of a flight: upside down, at rest, at `(x0, H - 50)`.
+    pub fn start(env: &Env) -> Flight {
+        Flight::at(
+            State {
                 x: env.x0,
-                y: w.start_y(),
+                y: env.world.start_y(),
                 vx: 0.0,
                 vy: 0.0,
                 rot: PI,
             },
-            ticks: 0,
+            0,
+        )
+    }
+
+    /// A flight in `state` with `ticks` already flown.
+    pub fn at(state: State, ticks: u32) -> Flight {
+        Flight {
+            state,
+            ticks,
             touched_down: false,
             trig_rot: f64::NAN,
             sin: 0.0,
             cos: 0.0,
             hull_rot: f64::NAN,
             hull_low: 0.0,
-            reach,
-            width: w.width,
-            ground_y: w.ground_y,
-            clear_y: w.ground_y + reach * 1.001 + 1e-9,
-            hull_scale: w.hull_scale,
-            rotation_step: w.rotation_step,
-            thrust: w.thrust_per_tick(),
-            gravity: w.gravity_per_tick(),
-            max_ticks: w.max_ticks,
-        }
-    }
-
-    /// A lander in `state` with `ticks` already flown, for tests and tools
-    /// that start mid-flight.
-    pub fn with_state(env: &Env, state: State, ticks: u32) -> Lander {
-        Lander {
-            state,
-            ticks,
-            ..Lander::new(env)
         }
     }
 
@@ -128,37 +138,35 @@ impl Lander {
     }
 
     /// True once the lander is down or has used up its ticks.
-    pub fn ended(&self) -> bool {
-        self.touched_down || self.ticks >= self.max_ticks
+    pub fn ended(&self, p: &Physics) -> bool {
+        self.touched_down || self.ticks >= p.max_ticks
     }
 
     /// Flies up to `ticks` ticks of `action`, stopping early at touchdown
     /// or at the tick guard. Returns the ticks actually flown.
-    pub fn run(&mut self, action: Action, ticks: u32) -> u32 {
+    pub fn run(&mut self, p: &Physics, action: Action, ticks: u32) -> u32 {
         if self.touched_down {
             return 0;
         }
-        let ticks = ticks.min(self.max_ticks - self.ticks);
+        let ticks = ticks.min(p.max_ticks.saturating_sub(self.ticks));
         match action {
-            Action::RotateLeft => self.repeat(ticks, Self::rotate_left),
-            Action::RotateRight => self.repeat(ticks, Self::rotate_right),
-            Action::Thrust => self.repeat(ticks, Self::thrust),
-            Action::Drift => self.repeat(ticks, |_| {}),
+            Action::RotateLeft => self.repeat(p, ticks, Self::rotate_left),
+            Action::RotateRight => self.repeat(p, ticks, Self::rotate_right),
+            Action::Thrust => self.repeat(p, ticks, Self::thrust),
+            Action::Drift => self.repeat(p, ticks, |_, _| {}),
         }
     }
 
     /// Drifts until touchdown or the tick guard.
-    pub fn drift_to_end(&mut self) {
-        if !self.touched_down {
-            self.repeat(self.max_ticks - self.ticks, |_| {});
-        }
+    pub fn drift_to_end(&mut self, p: &Physics) {
+        self.run(p, Action::Drift, u32::MAX);
     }
 
     /// Flies every gene in order, stopping at touchdown.
-    pub fn run_genes(&mut self, genes: &[Gene]) {
+    pub fn run_genes(&mut self, p: &Physics, genes: &[Gene]) {
         for gene in genes {
-            self.run(gene.action, u32::from(gene.duration));
-            if self.ended() {
+            self.run(p, gene.action, u32::from(gene.duration));
+            if self.ended(p) {
                 break;
             }
         }
@@ -178,10 +186,10 @@ impl Lander {
     }
 
     #[inline(always)]
-    fn repeat(&mut self, ticks: u32, act: impl Fn(&mut Self)) -> u32 {
+    fn repeat(&mut self, p: &Physics, ticks: u32, act: impl Fn(&mut Self, &Physics)) -> u32 {
         for flown in 1..=ticks {
-            act(self);
-            if self.finish_tick() {
+            act(self, p);
+            if self.finish_tick(p) {
                 return flown;
             }
         }
@@ -189,64 +197,64 @@ impl Lander {
     }
 
     #[inline(always)]
-    fn rotate_left(&mut self) {
-        self.state.rot -= self.rotation_step;
+    fn rotate_left(&mut self, p: &Physics) {
+        self.state.rot -= p.rotation_step;
         if self.state.rot < -PI {
             self.state.rot += TAU;
         }
     }
 
     #[inline(always)]
-    fn rotate_right(&mut self) {
-        self.state.rot += self.rotation_step;
+    fn rotate_right(&mut self, p: &Physics) {
+        self.state.rot += p.rotation_step;
         if self.state.rot > TAU {
             self.state.rot -= TAU;
         }
     }
 
     #[inline(always)]
-    fn thrust(&mut self) {
+    fn thrust(&mut self, p: &Physics) {
         self.refresh_trig();
-        self.state.vx += self.thrust * self.sin;
-        self.state.vy += self.thrust * self.cos;
+        self.state.vx += p.thrust * self.sin;
+        self.state.vy += p.thrust * self.cos;
     }
 
     /// Gravity, move, wrap and the impact test. Returns true at touchdown.
     #[inline(always)]
-    fn finish_tick(&mut self) -> bool {
+    fn finish_tick(&mut self, p: &Physics) -> bool {
         let s = &mut self.state;
-        s.vy += -self.gravity;
+        s.vy += -p.gravity;
         s.x += s.vx;
         s.y += s.vy;
-        if s.x > self.width {
+        if s.x > p.width {
             s.x = 0.0;
         }
         if s.x < 0.0 {
-            s.x = self.width;
+            s.x = p.width;
         }
         self.ticks += 1;
-        if self.state.y < self.clear_y {
-            self.touched_down = self.hull_below_ground();
+        if self.state.y < p.clear_y {
+            self.touched_down = self.hull_below_ground(p);
         }
         self.touched_down
     }
 
     /// The impact test near the ground.
     #[inline(always)]
-    fn hull_below_ground(&mut self) -> bool {
+    fn hull_below_ground(&mut self, p: &Physics) -> bool {
         let (y, rot) = (self.state.y, self.state.rot);
         if rot != self.hull_rot {
             // The margin dwarfs the rounding in the offsets; a NaN `hull_rot`
             // fails the test and forces the exact path.
-            let lowest = self.hull_low - self.reach * (rot - self.hull_rot).abs() - 1e-9;
-            if y + lowest >= self.ground_y {
+            let lowest = self.hull_low - p.reach * (rot - self.hull_rot).abs() - 1e-9;
+            if y + lowest >= p.ground_y {
                 return false;
             }
             self.refresh_trig();
-            self.hull_low = lowest_offset(self.hull_scale, self.sin, self.cos);
+            self.hull_low = lowest_offset(p.hull_scale, self.sin, self.cos);
             self.hull_rot = rot;
         }
-        y + self.hull_low < self.ground_y
+        y + self.hull_low < p.ground_y
     }
 
     #[inline(always)]
@@ -255,6 +263,61 @@ impl Lander {
             (self.sin, self.cos) = self.state.rot.sin_cos();
             self.trig_rot = self.state.rot;
         }
+    }
+}
+
+/// A flight together with its world's constants: the convenient form for
+/// code that flies one lander at a time.
+#[derive(Clone, Copy, Debug)]
+pub struct Lander {
+    pub physics: Physics,
+    pub flight: Flight,
+}
+
+impl Lander {
+    /// A lander at the start of a flight.
+    pub fn new(env: &Env) -> Lander {
+        Lander {
+            physics: Physics::new(env),
+            flight: Flight::start(env),
+        }
+    }
+
+    /// A lander in `state` with `ticks` already flown, for tests and tools
+    /// that start mid-flight.
+    pub fn with_state(env: &Env, state: State, ticks: u32) -> Lander {
+        Lander {
+            physics: Physics::new(env),
+            flight: Flight::at(state, ticks),
+        }
+    }
+
+    pub fn state(&self) -> State {
+        self.flight.state
+    }
+
+    pub fn ticks(&self) -> u32 {
+        self.flight.ticks
+    }
+
+    pub fn touched_down(&self) -> bool {
+        self.flight.touched_down()
+    }
+
+    pub fn ended(&self) -> bool {
+        self.flight.ended(&self.physics)
+    }
+
+    pub fn run(&mut self, action: Action, ticks: u32) -> u32 {
+        self.flight.run(&self.physics, action, ticks)
+    }
+
+    pub fn drift_to_end(&mut self) {
+        self.flight.drift_to_end(&self.physics)
+    }
+
+    pub fn outcome(&self, env: &Env, n: u32) -> Outcome {
+        self.flight.outcome(env, n)
     }
 }
 
@@ -282,11 +345,12 @@ pub const HULL_RADIUS: f64 = 1.920_937_271_229_854_7;
 
 /// Flies a genome from the start state to touchdown and scores it.
 pub fn fly(env: &Env, genes: &[Gene]) -> Outcome {
-    let mut lander = Lander::new(env);
-    lander.run_genes(genes);
-    let n = lander.ticks;
-    lander.drift_to_end();
-    lander.outcome(env, n)
+    let p = Physics::new(env);
+    let mut flight = Flight::start(env);
+    flight.run_genes(&p, genes);
+    let n = flight.ticks;
+    flight.drift_to_end(&p);
+    flight.outcome(env, n)
 }
 
 /// Flies like [`fly`], one tick at a time, showing `visit` the tick number,
@@ -310,9 +374,9 @@ pub fn fly_traced(
             Action::Drift
         });
         lander.run(action, 1);
-        visit(lander.ticks, action, &lander.state);
+        visit(lander.ticks(), action, &lander.flight.state);
     }
-    lander.outcome(env, n.unwrap_or(lander.ticks))
+    lander.outcome(env, n.unwrap_or(lander.ticks()))
 }
 
 #[cfg(test)]

@@ -26,13 +26,13 @@ fn one_tick(action: Action) -> State {
     let e = env(200.0, 100.0);
     let mut l = Lander::new(&e);
     assert_eq!(l.run(action, 1), 1);
-    l.state
+    l.state()
 }
 
 #[test]
 fn start_state_is_upside_down_at_rest_fifty_below_the_top() {
     let l = Lander::new(&env(123.0, 100.0));
-    assert_eq!(l.state, state(123.0, 250.0, 0.0, 0.0, PI));
+    assert_eq!(l.state(), state(123.0, 250.0, 0.0, 0.0, PI));
 }
 
 #[test]
@@ -62,8 +62,8 @@ fn rotate_left_wraps_below_minus_pi() {
     let e = env(200.0, 100.0);
     let mut l = Lander::with_state(&e, state(200.0, 250.0, 0.0, 0.0, -PI + 0.01), 0);
     l.run(Action::RotateLeft, 1);
-    assert_eq!(l.state.rot, (-PI + 0.01 - 0.05) + TAU);
-    assert!((l.state.rot - (PI - 0.04)).abs() < 1e-12);
+    assert_eq!(l.state().rot, (-PI + 0.01 - 0.05) + TAU);
+    assert!((l.state().rot - (PI - 0.04)).abs() < 1e-12);
 }
 
 #[test]
@@ -72,12 +72,13 @@ fn rotate_right_wraps_only_above_two_pi() {
     let mut l = Lander::with_state(&e, state(200.0, 250.0, 0.0, 0.0, 6.2), 0);
     l.run(Action::RotateRight, 1);
     assert_eq!(
-        l.state.rot, 6.25,
+        l.state().rot,
+        6.25,
         "6.25 < 2π: no wrap, upright yet 'badly rotated'"
     );
     l.run(Action::RotateRight, 1);
-    assert_eq!(l.state.rot, 6.25 + 0.05 - TAU);
-    assert!((l.state.rot - 0.016_814_692_820_4).abs() < 1e-9);
+    assert_eq!(l.state().rot, 6.25 + 0.05 - TAU);
+    assert!((l.state().rot - 0.016_814_692_820_4).abs() < 1e-9);
 }
 
 #[test]
@@ -85,13 +86,13 @@ fn x_wraps_at_both_edges_with_no_ceiling() {
     let e = env(200.0, 100.0);
     let mut l = Lander::with_state(&e, state(399.9, 250.0, 0.2, 0.0, PI), 0);
     l.run(Action::Drift, 1);
-    assert_eq!(l.state.x, 0.0);
+    assert_eq!(l.state().x, 0.0);
     let mut l = Lander::with_state(&e, state(0.1, 250.0, -0.2, 0.0, PI), 0);
     l.run(Action::Drift, 1);
-    assert_eq!(l.state.x, 400.0);
+    assert_eq!(l.state().x, 400.0);
     let mut l = Lander::with_state(&e, state(10.0, 1e6, 0.0, 5.0, PI), 0);
     l.run(Action::Drift, 1);
-    assert!(l.state.y > 1e6, "nothing stops a lander flying up");
+    assert!(l.state().y > 1e6, "nothing stops a lander flying up");
 }
 
 #[test]
@@ -101,9 +102,9 @@ fn upright_touchdown_comes_when_the_centre_drops_below_67() {
     for (after, down) in [(67.001, false), (67.0, false), (66.999, true)] {
         let mut l = Lander::with_state(&e, state(200.0, after + G, 0.0, 0.0, 0.0), 0);
         l.run(Action::Drift, 1);
-        assert!((l.state.y - after).abs() < 1e-9);
+        assert!((l.state().y - after).abs() < 1e-9);
         assert_eq!(l.touched_down(), down, "centre at {after}");
-        assert_eq!(reference::touches_ground(&e, &l.state), down);
+        assert_eq!(reference::touches_ground(&e, &l.state()), down);
     }
 }
 
@@ -254,12 +255,12 @@ proptest! {
     ) {
         let e = env(200.0, 100.0);
         let mut fast = Lander::with_state(&e, state(x, y, vx, vy, rot), 0);
-        let mut slow = fast.state;
+        let mut slow = fast.state();
         for a in actions {
             let a = Action::from_index(a).unwrap();
             fast.run(a, 1);
             reference::tick(&e, &mut slow, a);
-            prop_assert_eq!(fast.state, slow);
+            prop_assert_eq!(fast.state(), slow);
             prop_assert_eq!(fast.touched_down(), reference::touches_ground(&e, &slow));
             if fast.touched_down() { break; }
         }
@@ -304,12 +305,12 @@ proptest! {
     ) {
         let e = env(200.0, 100.0);
         let mut fast = Lander::with_state(&e, state(x, y, 0.0, vy, rot), 0);
-        let mut slow = fast.state;
+        let mut slow = fast.state();
         for a in actions {
             let a = Action::from_index(a).unwrap();
             fast.run(a, 1);
             reference::tick(&e, &mut slow, a);
-            prop_assert_eq!(fast.state, slow);
+            prop_assert_eq!(fast.state(), slow);
             prop_assert_eq!(fast.touched_down(), reference::touches_ground(&e, &slow));
             if fast.touched_down() { break; }
         }
