@@ -5,8 +5,10 @@
 //! - [`trial`]: one trial, generation by generation, with restarts.
 //! - [`evaluator`]: who flies a generation; in-process over threads.
 //! - [`pool`]: the evaluator pool over iceoryx2 worker processes.
+//! - [`bench`]: the throughput comparison behind `lander bench`.
 //! - [`report`]: what a run writes: JSON lines, `best.json`, the summary.
 
+pub mod bench;
 pub mod config;
 pub mod evaluator;
 pub mod ga;

@@ -28,6 +28,9 @@ pub const ROOT_ENV: &str = "LANDER_IOX2_ROOT";
 /// The most workers one run takes.
 pub const MAX_WORKERS: usize = 128;
 
+/// Requests a coordinator may have outstanding at one worker.
+pub const MAX_QUEUED: usize = 4;
+
 /// Event ids on a worker's `jobs` service.
 pub const JOB_EVENT: usize = 1;
 pub const SHUTDOWN_EVENT: usize = 2;
@@ -143,9 +146,9 @@ pub fn eval_service(node: &Node<ipc::Service>, name: &str) -> Result<EvalService
         .max_servers(1)
         .max_clients(2)
         .max_nodes(4)
-        .max_active_requests_per_client(4)
-        .max_response_buffer_size(4)
-        .max_loaned_requests(4)
+        .max_active_requests_per_client(MAX_QUEUED)
+        .max_response_buffer_size(MAX_QUEUED)
+        .max_loaned_requests(MAX_QUEUED)
         .enable_safe_overflow_for_responses(false)
         .open_or_create()
         .map_err(fail(format!("opening {name}")))

@@ -79,6 +79,9 @@ pub struct ResultHeader {
     pub status: u32,
     pub job_id: u64,
     pub worker_id: u64,
+    /// Nanoseconds the worker spent on the job, so the coordinator can tell
+    /// transport overhead from computation.
+    pub compute_ns: u64,
 }
 
 /// A worker's announcement that it is ready to serve a run.
@@ -96,6 +99,8 @@ pub struct WorkerAnnounce {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ChunkResult {
     pub evaluations: Vec<Evaluation>,
+    /// Encoded as one byte string rather than a sequence of numbers.
+    #[serde(with = "serde_bytes")]
     pub actions: Vec<u8>,
 }
 

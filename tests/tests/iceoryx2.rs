@@ -280,3 +280,39 @@ fn bad_worker_options_are_refused() {
     assert!(!out.status.success());
     assert!(stderr(&out).contains("--run"));
 }
+
+#[test]
+fn bench_compares_the_modes_and_their_results_agree() {
+    let iox = Iox::new("bench");
+    let out = iox.lander(&[
+        "bench",
+        "--generations",
+        "3",
+        "--rounds",
+        "2",
+        "--population",
+        "30",
+        "--json",
+    ]);
+    let report = json_out(&out);
+    let names: Vec<&str> = report["modes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["inproc-1", "inproc-2", "iceoryx2-1", "iceoryx2-2"]);
+    assert_eq!(report["hashes_agree"], true);
+    for m in report["modes"].as_array().unwrap() {
+        assert!(m["genomes_per_s"].as_f64().unwrap() > 0.0);
+        assert!(m["ticks_per_s"].as_f64().unwrap() > 0.0);
+        let ipc = m["name"].as_str().unwrap().starts_with("iceoryx2");
+        assert_eq!(m["rtt_p50_us"].is_number(), ipc, "{m}");
+        assert_eq!(m["rtt_p99_us"].is_number(), ipc, "{m}");
+    }
+    assert!(report["ratios"]["scaling"].as_f64().unwrap() > 0.0);
+    assert!(report["ratios"]["ipc_efficiency"].as_f64().unwrap() > 0.0);
+    let bad = iox.lander(&["bench", "--transports", "carrier-pigeon"]);
+    assert!(!bad.status.success());
+    assert!(stderr(&bad).contains("--transports"));
+}

@@ -40,8 +40,8 @@ pub fn evaluate(
 }
 
 /// Evaluates every genome of a checked job, as a worker does.
-pub fn run_job(job: &Job) -> ChunkResult {
-    let mut genes = job.genes.clone();
+pub fn run_job(job: Job) -> ChunkResult {
+    let mut genes = job.genes;
     let evaluations = genes
         .chunks_mut(job.genome_length)
         .enumerate()

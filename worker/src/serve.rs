@@ -10,7 +10,7 @@ use lander_protocol::wire::{
     Job, ResultHeader, Status, WireError, WorkerAnnounce, PROTOCOL_VERSION,
 };
 use std::cell::{Cell, RefCell};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// How often an idle worker looks around: re-announces itself until it has
 /// work, reaps dead nodes, and checks its coordinator is still there.
@@ -180,8 +180,9 @@ fn serve_waiting(
     let mut count = 0;
     while let Some(request) = server.receive().map_err(iox::fail("receiving a job"))? {
         let header = *request.user_header();
+        let started = Instant::now();
         let (status, body) = match Job::from_wire(&header, request.payload()) {
-            Ok(job) => (Status::Done, run_job(&job).encode()),
+            Ok(job) => (Status::Done, run_job(job).encode()),
             Err(e) => {
                 say(&format!("refusing job {}: {e}", header.job_id));
                 let status = match e {
@@ -199,6 +200,7 @@ fn serve_waiting(
             status: status as u32,
             job_id: header.job_id,
             worker_id: id,
+            compute_ns: started.elapsed().as_nanos() as u64,
         };
         response
             .write_from_slice(&body)

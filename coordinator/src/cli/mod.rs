@@ -1,5 +1,6 @@
 //! The subcommands of `lander` and their arguments.
 
+mod bench;
 mod flight;
 mod run;
 
@@ -26,6 +27,8 @@ enum Command {
     Fly(flight::FlyArgs),
     /// Apply the guided evolve pass to one genome and print the result.
     Guide(flight::GuideArgs),
+    /// Compare evaluation throughput in-process and over iceoryx2, side by side.
+    Bench(bench::BenchArgs),
 }
 
 pub fn dispatch(cli: Cli) -> anyhow::Result<()> {
@@ -33,5 +36,6 @@ pub fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::Run(args) => run::run(args),
         Command::Fly(args) => flight::fly(args),
         Command::Guide(args) => flight::guide(args),
+        Command::Bench(args) => bench::bench(args),
     }
 }

@@ -60,7 +60,7 @@ pub struct RunArgs {
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
-enum MethodArg {
+pub enum MethodArg {
     Ga,
     Guided,
 }
@@ -121,17 +121,7 @@ impl RunArgs {
             Some(id) => check_run_id(id)?,
             None => format!("{:08x}", rand::random::<u32>()),
         };
-        let worker_exe = std::env::current_exe()
-            .context("finding this executable")?
-            .with_file_name("lander-worker");
-        let opts = PoolOptions {
-            run_id,
-            spawn: self.workers,
-            worker_exe,
-            chunks_per_worker: 4,
-            deadline: Duration::from_secs_f64(self.deadline),
-            max_respawns: 3 * self.workers.max(1),
-        };
+        let opts = pool_options(run_id, self.workers, Duration::from_secs_f64(self.deadline))?;
         let bar = bar.clone();
         let say = Box::new(move |msg: &str| bar.suspend(|| eprintln!("lander: {msg}")));
         if self.attach {
@@ -139,6 +129,26 @@ impl RunArgs {
         }
         Ok(Box::new(IpcPool::start(opts, say)?))
     }
+}
+
+/// A pool that spawns `workers` copies of the `lander-worker` beside this
+/// executable (0: workers attach themselves).
+pub fn pool_options(
+    run_id: String,
+    workers: usize,
+    deadline: Duration,
+) -> anyhow::Result<PoolOptions> {
+    let worker_exe = std::env::current_exe()
+        .context("finding this executable")?
+        .with_file_name("lander-worker");
+    Ok(PoolOptions {
+        run_id,
+        spawn: workers,
+        worker_exe,
+        chunks_per_worker: 4,
+        deadline,
+        max_respawns: 3 * workers.max(1),
+    })
 }
 
 fn check_run_id(id: &str) -> anyhow::Result<String> {

@@ -6,7 +6,7 @@ use iceoryx2::pending_response::PendingResponse;
 use iceoryx2::port::client::Client;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::prelude::*;
-use lander_protocol::iox::{self, IpcError, RunNames, JOB_EVENT, SHUTDOWN_EVENT};
+use lander_protocol::iox::{self, IpcError, RunNames, JOB_EVENT, MAX_QUEUED, SHUTDOWN_EVENT};
 use lander_protocol::wire::{
     ChunkResult, JobHeader, ResultHeader, Status, WireError, WireGene, WorkerAnnounce,
     PROTOCOL_VERSION,
@@ -27,7 +27,29 @@ struct InFlight {
     job_id: u64,
     chunk: usize,
     pending: Pending,
+    sent: Instant,
+    /// Whether another chunk was ahead of it at the worker.
+    queued: bool,
     deadline: Instant,
+}
+
+/// One answered chunk.
+pub struct Answer {
+    pub chunk: usize,
+    pub result: ChunkResult,
+    pub timing: ChunkTiming,
+}
+
+/// How long a chunk took, seen from both ends.
+#[derive(Clone, Copy, Debug)]
+pub struct ChunkTiming {
+    /// From sending the request to reading the answer.
+    pub round_trip: Duration,
+    /// The worker's own time on the job.
+    pub compute: Duration,
+    /// Whether the chunk waited behind another at the worker, which then
+    /// counts in its round trip.
+    pub queued: bool,
 }
 
 pub struct Link {
@@ -69,7 +91,7 @@ impl Link {
 
     /// True while the worker can queue another chunk.
     pub fn has_room(&self) -> bool {
-        self.busy.len() < DEPTH && !self.broken
+        self.busy.len() < DEPTH.min(MAX_QUEUED) && !self.broken
     }
 
     pub fn is_broken(&self) -> bool {
@@ -118,8 +140,8 @@ impl Link {
                 .loan_slice_uninit(genomes.len() * length)
                 .map_err(iox::fail("loaning a request"))?;
             *request.user_header_mut() = header;
-            let request =
-                request.write_from_fn(|i| WireGene::from(genomes[i / length][i % length]));
+            let genes: Vec<WireGene> = genomes.iter().flatten().map(|&g| g.into()).collect();
+            let request = request.write_from_slice(&genes);
             let pending = request.send().map_err(iox::fail("sending a request"))?;
             if pending.number_of_server_connections() == 0 {
                 return Err(IpcError {
@@ -134,11 +156,15 @@ impl Link {
         })();
         match sent {
             Ok(pending) => {
+                let now = Instant::now();
+                let queued = !self.busy.is_empty();
                 self.busy.push_back(InFlight {
                     job_id,
                     chunk,
                     pending,
-                    deadline: Instant::now() + deadline,
+                    sent: now,
+                    queued,
+                    deadline: now + deadline,
                 });
                 Ok(())
             }
@@ -149,7 +175,7 @@ impl Link {
         }
     }
 
-    /// Collects the answers that arrived, as `(chunk, result)`. An answer
+    /// Collects the answers that arrived. An answer
     /// that fails its checks breaks the link and comes back as `Err`; the
     /// chunks still in flight are then flown elsewhere.
     pub fn poll(
@@ -157,20 +183,23 @@ impl Link {
         method: Method,
         length: usize,
         ranges: &[Range<usize>],
-    ) -> Result<Vec<(usize, ChunkResult)>, String> {
+    ) -> Result<Vec<Answer>, String> {
         let mut answered = Vec::new();
         let mut i = 0;
         while i < self.busy.len() {
             let flight = &self.busy[i];
             let answer = match flight.pending.receive() {
-                Ok(Some(response)) => check(
-                    flight,
-                    response.user_header(),
-                    response.payload(),
-                    method,
-                    ranges[flight.chunk].len(),
-                    length,
-                ),
+                Ok(Some(response)) => {
+                    let h = response.user_header();
+                    let timing = ChunkTiming {
+                        round_trip: flight.sent.elapsed(),
+                        compute: Duration::from_nanos(h.compute_ns),
+                        queued: flight.queued,
+                    };
+                    let genomes = ranges[flight.chunk].len();
+                    check(flight, h, response.payload(), method, genomes, length)
+                        .map(|result| (result, timing))
+                }
                 Ok(None) if flight.pending.is_connected() => {
                     i += 1;
                     continue;
@@ -181,8 +210,12 @@ impl Link {
                 }
             };
             match answer {
-                Ok(result) => {
-                    answered.push((flight.chunk, result));
+                Ok((result, timing)) => {
+                    answered.push(Answer {
+                        chunk: flight.chunk,
+                        result,
+                        timing,
+                    });
                     self.busy.remove(i);
                 }
                 Err(e) => {

@@ -19,9 +19,10 @@ use iceoryx2::prelude::*;
 use lander_protocol::iox::{self, RunNames};
 use lander_protocol::wire::{ChunkResult, WorkerAnnounce, PROTOCOL_VERSION};
 use lander_protocol::{Action, Evaluation};
+pub use link::ChunkTiming;
 use link::Link;
 use spawn::Children;
-use std::collections::VecDeque;
+use std::collections::{HashSet, VecDeque};
 use std::ops::Range;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -58,10 +59,15 @@ pub struct IpcPool {
     register: Subscriber<ipc::Service, WorkerAnnounce, ()>,
     wake: Listener<ipc::Service>,
     links: Vec<Link>,
+    /// Workers dropped once are not taken back: a worker that restarts
+    /// comes back under a new id.
+    dropped: HashSet<u64>,
     children: Children,
     next_job: u64,
     last_reap: Instant,
     told_waiting: bool,
+    /// Kept only when asked for, so long runs do not accumulate them.
+    timings: Option<Vec<ChunkTiming>>,
     say: Say,
 }
 
@@ -93,6 +99,7 @@ impl IpcPool {
             register,
             wake,
             links: Vec::new(),
+            dropped: HashSet::new(),
             children: Children::new(
                 opts.worker_exe.clone(),
                 opts.run_id.clone(),
@@ -101,6 +108,7 @@ impl IpcPool {
             next_job: 0,
             last_reap: Instant::now(),
             told_waiting: false,
+            timings: None,
             say,
             opts,
         };
@@ -114,6 +122,41 @@ impl IpcPool {
         &self.opts.run_id
     }
 
+    /// Workers connected now.
+    pub fn workers(&self) -> usize {
+        self.links.len()
+    }
+
+    /// Waits until `n` workers have announced themselves.
+    pub fn wait_for_workers(&mut self, n: usize, patience: Duration) -> Result<(), EvalError> {
+        let end = Instant::now() + patience;
+        let mut todo = VecDeque::new();
+        while self.links.len() < n {
+            if Instant::now() >= end {
+                return Err(EvalError::NoWorkers {
+                    respawns: self.opts.max_respawns,
+                });
+            }
+            self.accept()?;
+            self.reap(&mut todo)?;
+            self.sleep()?;
+        }
+        Ok(())
+    }
+
+    /// Starts keeping the timing of every chunk answered.
+    pub fn record_timings(&mut self) {
+        self.timings.get_or_insert_with(Vec::new);
+    }
+
+    /// The timings kept since the last call.
+    pub fn take_timings(&mut self) -> Vec<ChunkTiming> {
+        self.timings
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
+    }
+
     /// Connects to workers that announced themselves since the last look.
     fn accept(&mut self) -> Result<(), EvalError> {
         while let Some(sample) = self
@@ -122,7 +165,8 @@ impl IpcPool {
             .map_err(iox::fail("reading registrations"))?
         {
             let w = *sample;
-            if self.links.iter().any(|l| l.id == w.worker_id) {
+            if self.dropped.contains(&w.worker_id) || self.links.iter().any(|l| l.id == w.worker_id)
+            {
                 continue;
             }
             if w.version != PROTOCOL_VERSION {
@@ -144,8 +188,16 @@ impl IpcPool {
     /// spawned workers that are gone. Their chunks go back in `todo`.
     fn reap(&mut self, todo: &mut VecDeque<usize>) -> Result<(), EvalError> {
         for pid in self.children.exited() {
+            let replaced = self.children.respawn()?;
+            (self.say)(&format!(
+                "worker process {pid} exited; {}",
+                if replaced {
+                    "starting another"
+                } else {
+                    "no respawns left"
+                }
+            ));
             self.drop_links(todo, |l| l.pid == pid, "exited");
-            self.children.respawn()?;
         }
         if self.last_reap.elapsed() >= REAP_EVERY {
             self.node.try_cleanup_dead_nodes();
@@ -174,6 +226,7 @@ impl IpcPool {
             false
         });
         for (id, requeued) in dropped {
+            self.dropped.insert(id);
             let then = if requeued {
                 "; its chunks go to other workers"
             } else {
@@ -237,10 +290,13 @@ impl Evaluator for IpcPool {
             for link in &mut self.links {
                 match link.poll(batch.method, length, &ranges) {
                     Ok(answers) => {
-                        for (chunk, result) in answers {
+                        for a in answers {
+                            if let Some(t) = &mut self.timings {
+                                t.push(a.timing);
+                            }
                             // A chunk flown twice keeps its first answer.
-                            if done[chunk].is_none() {
-                                done[chunk] = Some(result);
+                            if done[a.chunk].is_none() {
+                                done[a.chunk] = Some(a.result);
                                 remaining -= 1;
                             }
                         }

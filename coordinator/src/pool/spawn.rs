@@ -52,12 +52,14 @@ impl Children {
     }
 
     /// Replaces a worker that died, while the respawn budget lasts.
-    pub fn respawn(&mut self) -> Result<(), EvalError> {
-        if self.respawns_left > 0 {
-            self.respawns_left -= 1;
-            self.spawn()?;
+    /// Returns whether it did.
+    pub fn respawn(&mut self) -> Result<bool, EvalError> {
+        if self.respawns_left == 0 {
+            return Ok(false);
         }
-        Ok(())
+        self.respawns_left -= 1;
+        self.spawn()?;
+        Ok(true)
     }
 
     /// Reaps the workers that exited and returns their pids.

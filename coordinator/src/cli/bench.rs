@@ -1,0 +1,218 @@
+//! `lander bench`: the throughput stress test, modes side by side.
+
+use super::run::{pool_options, MethodArg};
+use anyhow::Context;
+use clap::Args;
+use lander_coordinator::bench::{Mode, ModeEvaluator, ModeReport, Workload};
+use lander_coordinator::config::RunConfig;
+use lander_coordinator::evaluator::InProcess;
+use lander_coordinator::pool::IpcPool;
+use lander_protocol::iox::MAX_WORKERS;
+use lander_protocol::Method;
+use serde::Serialize;
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// A TOML run configuration for the model's parameters.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Workers (and threads) for the parallel modes.
+    #[arg(long, default_value_t = 2)]
+    workers: usize,
+    /// Generations in the workload.
+    #[arg(long, default_value_t = 30)]
+    generations: u64,
+    /// Genomes per generation.
+    #[arg(long, default_value_t = 100)]
+    population: usize,
+    #[arg(long, value_enum, default_value = "guided")]
+    method: MethodArg,
+    /// Rounds; each round runs every mode once, in a rotating order.
+    #[arg(long, default_value_t = 5)]
+    rounds: usize,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Transports to compare, comma-separated: inproc, iceoryx2.
+    #[arg(long, value_delimiter = ',', default_value = "inproc,iceoryx2")]
+    transports: Vec<String>,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Serialize)]
+struct Ratios {
+    /// iceoryx2 with N workers over iceoryx2 with 1.
+    scaling: Option<f64>,
+    /// iceoryx2 with N workers over in-process with N threads.
+    ipc_efficiency: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct Report {
+    method: &'static str,
+    population: usize,
+    generations: u64,
+    rounds: usize,
+    workers: usize,
+    modes: Vec<ModeReport>,
+    ratios: Ratios,
+    hashes_agree: bool,
+}
+
+fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
+    let n = args.workers;
+    let mut modes = Vec::new();
+    for transport in &args.transports {
+        match transport.as_str() {
+            "inproc" => {
+                modes.push(Mode::new(
+                    "inproc-1",
+                    ModeEvaluator::InProcess(InProcess::new(1)?),
+                ));
+                if n > 1 {
+                    modes.push(Mode::new(
+                        format!("inproc-{n}"),
+                        ModeEvaluator::InProcess(InProcess::new(n)?),
+                    ));
+                }
+            }
+            "iceoryx2" => {
+                for w in if n > 1 { vec![1, n] } else { vec![1] } {
+                    let id = format!("bench{:08x}", rand::random::<u32>());
+                    let opts = pool_options(id, w, Duration::from_secs(60))?;
+                    let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("lander: {m}")))?;
+                    pool.wait_for_workers(w, Duration::from_secs(20))
+                        .context("waiting for the benchmark's workers")?;
+                    modes.push(Mode::new(
+                        format!("iceoryx2-{w}"),
+                        ModeEvaluator::Iceoryx2(Box::new(pool)),
+                    ));
+                }
+            }
+            "zenoh" => anyhow::bail!("--transports: the zenoh transport is not built yet"),
+            other => {
+                anyhow::bail!("--transports: unknown transport {other:?} (known: inproc, iceoryx2)")
+            }
+        }
+    }
+    Ok(modes)
+}
+
+pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        (1..=MAX_WORKERS).contains(&args.workers),
+        "--workers must be 1 to {MAX_WORKERS} (got {})",
+        args.workers
+    );
+    anyhow::ensure!(args.generations >= 1, "--generations must be at least 1");
+    anyhow::ensure!(args.rounds >= 1, "--rounds must be at least 1");
+    let mut cfg = match &args.config {
+        Some(path) => RunConfig::load(path)?,
+        None => RunConfig::default(),
+    };
+    cfg.method = Method::from(args.method);
+    cfg.seed = args.seed;
+    cfg.ga.population = args.population;
+    cfg.validate()?;
+    let work = Workload::new(&cfg, args.generations);
+    let mut modes = modes(&args)?;
+    anyhow::ensure!(!modes.is_empty(), "--transports named no transport");
+
+    // A short warm-up, then every generation flown by every mode in turn,
+    // the order rotating, so noise hits all modes alike.
+    for m in &mut modes {
+        m.step(&work, 0)?;
+        m.reset();
+    }
+    let k = modes.len();
+    let mut turn = 0;
+    for _ in 0..args.rounds {
+        for g in 0..work.generations.len() {
+            for i in 0..k {
+                modes[(i + turn) % k].step(&work, g)?;
+            }
+            turn += 1;
+        }
+        modes.iter_mut().for_each(Mode::end_round);
+    }
+
+    let reports: Vec<ModeReport> = modes.iter().map(Mode::report).collect();
+    let rate = |name: String| {
+        reports
+            .iter()
+            .find(|m| m.name == name)
+            .map(|m| m.genomes_per_s)
+    };
+    let n = args.workers;
+    let ratio = |a: Option<f64>, b: Option<f64>| Some(a? / b?);
+    let ratios = Ratios {
+        scaling: ratio(rate(format!("iceoryx2-{n}")), rate("iceoryx2-1".into())).filter(|_| n > 1),
+        ipc_efficiency: ratio(rate(format!("iceoryx2-{n}")), rate(format!("inproc-{n}"))),
+    };
+    let hashes_agree = modes.iter().all(|m| m.tally.consistent)
+        && reports.windows(2).all(|w| w[0].hash == w[1].hash);
+    let report = Report {
+        method: cfg.method.name(),
+        population: args.population,
+        generations: args.generations,
+        rounds: args.rounds,
+        workers: n,
+        modes: reports,
+        ratios,
+        hashes_agree,
+    };
+    drop(modes);
+    if args.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        print_table(&report);
+    }
+    anyhow::ensure!(hashes_agree, "the modes' results differ: a determinism bug");
+    Ok(())
+}
+
+fn print_table(r: &Report) {
+    println!(
+        "{} GA, {} genomes × {} generations × {} rounds, {} workers",
+        r.method, r.population, r.generations, r.rounds, r.workers
+    );
+    println!(
+        "{:<12} {:>12} {:>10} {:>9} {:>9} {:>9} {:>12} {:>13} {:>6}",
+        "mode",
+        "genomes/s",
+        "Mticks/s",
+        "rtt p50",
+        "rtt p99",
+        "rtt max",
+        "overhead p99",
+        "coord CPU/gen",
+        "util"
+    );
+    let us = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.0} µs"));
+    for m in &r.modes {
+        println!(
+            "{:<12} {:>12.0} {:>10.1} {:>9} {:>9} {:>9} {:>12} {:>10.0} µs {:>6}",
+            m.name,
+            m.genomes_per_s,
+            m.ticks_per_s / 1e6,
+            us(m.rtt_p50_us),
+            us(m.rtt_p99_us),
+            us(m.rtt_max_us),
+            us(m.overhead_p99_us),
+            m.coordinator_cpu_us_per_generation,
+            m.worker_utilisation
+                .map_or("-".into(), |u| format!("{:.0}%", u * 100.0)),
+        );
+    }
+    let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}×"));
+    println!(
+        "scaling (iceoryx2-{n} / iceoryx2-1): {}   ipc efficiency (iceoryx2-{n} / inproc-{n}): {}   results agree: {}",
+        pct(r.ratios.scaling),
+        pct(r.ratios.ipc_efficiency),
+        r.hashes_agree,
+        n = r.workers
+    );
+}
