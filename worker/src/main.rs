@@ -1,7 +1,7 @@
 //! `lander-worker`: a worker process that flies landers for a coordinator.
 
 use clap::Parser;
-use lander_worker::serve::{serve, Exit};
+use lander_worker::serve::{serve, Exit, Note};
 use std::process::ExitCode;
 
 #[derive(Parser, Debug)]
@@ -50,18 +50,21 @@ fn main() -> ExitCode {
     }
     let id = args.id.unwrap_or_else(rand::random);
     let say = |msg: &str| eprintln!("lander-worker {id:016x}: {msg}");
-    let inform = |msg: &str| {
-        if !args.quiet {
+    let note = |kind: Note, msg: &str| {
+        if kind == Note::Warning || !args.quiet {
             say(msg)
         }
     };
-    match serve(&args.run, id, &inform) {
+    match serve(&args.run, id, &note) {
         Ok(exit) => {
-            inform(match exit {
-                Exit::RunFinished => "run finished; exiting",
-                Exit::CoordinatorGone => "the coordinator is gone; exiting",
-                Exit::Signal => "stopped by signal; exiting",
-            });
+            note(
+                Note::Info,
+                match exit {
+                    Exit::RunFinished => "run finished; exiting",
+                    Exit::CoordinatorGone => "the coordinator is gone; exiting",
+                    Exit::Signal => "stopped by signal; exiting",
+                },
+            );
             ExitCode::SUCCESS
         }
         Err(e) => {

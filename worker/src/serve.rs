@@ -27,8 +27,17 @@ pub enum Exit {
     Signal,
 }
 
+/// What a worker tells its user.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Note {
+    /// Progress: waiting, serving.
+    Info,
+    /// Something refused; always worth showing.
+    Warning,
+}
+
 /// Serves run `run` as worker `id`, telling the user through `say`.
-pub fn serve(run: &str, id: u64, say: &dyn Fn(&str)) -> Result<Exit, IpcError> {
+pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcError> {
     iox::quiet_logs();
     let config = iox::config()?;
     let names = RunNames::new(run);
@@ -76,7 +85,10 @@ pub fn serve(run: &str, id: u64, say: &dyn Fn(&str)) -> Result<Exit, IpcError> {
         Ok(())
     };
     announce()?;
-    say(&format!("serving run {run} as worker {id:016x}"));
+    say(
+        Note::Info,
+        &format!("serving run {run} as worker {id:016x}"),
+    );
 
     let waitset = WaitSetBuilder::new()
         .create::<ipc::Service>()
@@ -141,17 +153,20 @@ fn wait_for_run(
     node: &Node<ipc::Service>,
     names: &RunNames,
     config: &Config,
-    say: &dyn Fn(&str),
+    say: &dyn Fn(Note, &str),
 ) -> Result<bool, IpcError> {
     let mut told = false;
     while !iox::run_exists(names, config)? {
         if !told {
-            say(&format!(
-                "waiting for run {}: no coordinator has started it yet \
+            say(
+                Note::Info,
+                &format!(
+                    "waiting for run {}: no coordinator has started it yet \
                  (start one with `lander run --attach --run-id {}`)",
-                names.run(),
-                names.run()
-            ));
+                    names.run(),
+                    names.run()
+                ),
+            );
             told = true;
         }
         if node.wait(Duration::from_millis(200)).is_err() {
@@ -174,7 +189,7 @@ type Server = iceoryx2::port::server::Server<
 fn serve_waiting(
     server: &Server,
     id: u64,
-    say: &dyn Fn(&str),
+    say: &dyn Fn(Note, &str),
     answered: impl Fn() -> Result<(), IpcError>,
 ) -> Result<usize, IpcError> {
     let mut count = 0;
@@ -184,7 +199,10 @@ fn serve_waiting(
         let (status, body) = match Job::from_wire(&header, request.payload()) {
             Ok(job) => (Status::Done, run_job(job).encode()),
             Err(e) => {
-                say(&format!("refusing job {}: {e}", header.job_id));
+                say(
+                    Note::Warning,
+                    &format!("refusing job {}: {e}", header.job_id),
+                );
                 let status = match e {
                     WireError::Version { .. } => Status::WrongVersion,
                     _ => Status::BadJob,
