@@ -197,8 +197,15 @@ impl Link {
                         queued: flight.queued,
                     };
                     let genomes = ranges[flight.chunk].len();
-                    check(flight, h, response.payload(), method, genomes, length)
-                        .map(|result| (result, timing))
+                    check(
+                        flight.job_id,
+                        h,
+                        response.payload(),
+                        method,
+                        genomes,
+                        length,
+                    )
+                    .map(|result| (result, timing))
                 }
                 Ok(None) if flight.pending.is_connected() => {
                     i += 1;
@@ -237,7 +244,7 @@ impl Link {
 
 /// Checks a response against the job it answers.
 fn check(
-    flight: &InFlight,
+    job_id: u64,
     h: &ResultHeader,
     body: &[u8],
     method: Method,
@@ -247,10 +254,10 @@ fn check(
     if h.version != PROTOCOL_VERSION {
         return Err(WireError::Version { got: h.version }.to_string());
     }
-    if h.job_id != flight.job_id {
+    if h.job_id != job_id {
         return Err(format!(
             "answer to job {} while job {} was asked",
-            h.job_id, flight.job_id
+            h.job_id, job_id
         ));
     }
     match Status::from_code(h.status) {
@@ -262,5 +269,76 @@ fn check(
             String::from_utf8_lossy(body)
         )),
         None => Err(format!("unknown status {}", h.status)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lander_protocol::{Evaluation, Outcome, State};
+
+    fn header(version: u32, status: Status, job_id: u64) -> ResultHeader {
+        ResultHeader {
+            version,
+            status: status as u32,
+            job_id,
+            ..ResultHeader::default()
+        }
+    }
+
+    fn body() -> Vec<u8> {
+        let e = Evaluation {
+            outcome: Outcome {
+                state: State {
+                    x: 1.0,
+                    y: 60.0,
+                    vx: 0.0,
+                    vy: -0.1,
+                    rot: 0.0,
+                },
+                ticks: 10,
+                n: 10,
+                touched_down: true,
+                safe: false,
+                fitness: 700.0,
+            },
+            simulated_ticks: 10,
+        };
+        ChunkResult {
+            evaluations: vec![e],
+            actions: Vec::new(),
+        }
+        .encode()
+    }
+
+    #[test]
+    fn a_good_answer_passes() {
+        let h = header(PROTOCOL_VERSION, Status::Done, 7);
+        assert!(check(7, &h, &body(), Method::Ga, 1, 50).is_ok());
+    }
+
+    #[test]
+    fn answers_it_cannot_check_are_refused_with_the_reason() {
+        let other = header(PROTOCOL_VERSION + 1, Status::Done, 7);
+        let e = check(7, &other, &body(), Method::Ga, 1, 50).unwrap_err();
+        assert!(e.contains("protocol version"), "{e}");
+        let wrong_job = header(PROTOCOL_VERSION, Status::Done, 8);
+        assert!(check(7, &wrong_job, &body(), Method::Ga, 1, 50)
+            .unwrap_err()
+            .contains("job 8"));
+        let refused = header(PROTOCOL_VERSION, Status::WrongVersion, 7);
+        let e = check(7, &refused, b"speaks version 9", Method::Ga, 1, 50).unwrap_err();
+        assert!(
+            e.contains("refused") && e.contains("speaks version 9"),
+            "{e}"
+        );
+        let short = header(PROTOCOL_VERSION, Status::Done, 7);
+        assert!(check(7, &short, &body(), Method::Ga, 2, 50)
+            .unwrap_err()
+            .contains("2 genomes"));
+        assert!(
+            check(7, &short, &body(), Method::Guided, 1, 50).is_err(),
+            "guided answers carry actions"
+        );
     }
 }
