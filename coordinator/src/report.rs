@@ -10,15 +10,36 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-/// The summary of one trial; the field order is the documented one.
+/// Which trial a record is about, and whether it landed: the fields every
+/// record of a trial starts with.
 #[derive(Debug, Serialize)]
-pub struct Summary {
+pub struct TrialId {
     pub method: &'static str,
     pub seed: u64,
     pub trial: u64,
     pub x0: f64,
     pub pad_x: f64,
     pub landed: bool,
+}
+
+impl TrialId {
+    pub fn new(cfg: &RunConfig, result: &TrialResult) -> TrialId {
+        TrialId {
+            method: cfg.method.name(),
+            seed: cfg.seed,
+            trial: cfg.trial,
+            x0: result.x0,
+            pad_x: result.pad_x,
+            landed: result.landed,
+        }
+    }
+}
+
+/// The summary of one trial; the field order is the documented one.
+#[derive(Debug, Serialize)]
+pub struct Summary {
+    #[serde(flatten)]
+    pub id: TrialId,
     pub generations: u64,
     pub restarts: u64,
     pub best_fitness: f64,
@@ -29,12 +50,7 @@ pub struct Summary {
 impl Summary {
     pub fn new(cfg: &RunConfig, result: &TrialResult, wall_s: f64) -> Summary {
         Summary {
-            method: cfg.method.name(),
-            seed: cfg.seed,
-            trial: cfg.trial,
-            x0: result.x0,
-            pad_x: result.pad_x,
-            landed: result.landed,
+            id: TrialId::new(cfg, result),
             generations: result.generations,
             restarts: result.restarts,
             best_fitness: result.best.outcome.fitness,
@@ -47,12 +63,8 @@ impl Summary {
 /// `best.json`: the best individual of the last attempt and its flight.
 #[derive(Debug, Serialize)]
 pub struct BestRecord<'a> {
-    pub method: &'static str,
-    pub seed: u64,
-    pub trial: u64,
-    pub x0: f64,
-    pub pad_x: f64,
-    pub landed: bool,
+    #[serde(flatten)]
+    pub id: TrialId,
     /// The generation, counted across restarts, that flew it.
     pub generation: u64,
     pub restart: u64,
@@ -63,12 +75,7 @@ pub struct BestRecord<'a> {
 impl<'a> BestRecord<'a> {
     pub fn new(cfg: &RunConfig, result: &'a TrialResult) -> BestRecord<'a> {
         BestRecord {
-            method: cfg.method.name(),
-            seed: cfg.seed,
-            trial: cfg.trial,
-            x0: result.x0,
-            pad_x: result.pad_x,
-            landed: result.landed,
+            id: TrialId::new(cfg, result),
             generation: result.best.index,
             restart: result.restarts,
             genome: format_genome(&result.best.genome),

@@ -66,19 +66,12 @@ mod tests {
     use super::*;
     use crate::evaluate::evaluate;
     use crate::sim::fly;
-    use lander_protocol::{Method, Scoring, StreamKey, World};
+    use lander_protocol::{Method, StreamKey};
     use proptest::prelude::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    fn env(x0: f64, pad_x: f64) -> Env {
-        Env {
-            world: World::default(),
-            scoring: Scoring::default(),
-            x0,
-            pad_x,
-        }
-    }
+    use crate::test_env as env;
 
     fn arb_genome() -> impl Strategy<Value = Vec<Gene>> {
         proptest::collection::vec(

@@ -21,3 +21,14 @@ pub use evaluate::{evaluate, run_job};
 pub use guide::guide;
 pub use lander_protocol::{Evaluation, Method, Outcome, State};
 pub use sim::{fly, fly_traced, Flight, Lander, Physics, HULL, HULL_RADIUS};
+
+/// The paper's world with the given start column and pad, for tests.
+#[cfg(test)]
+pub(crate) fn test_env(x0: f64, pad_x: f64) -> lander_protocol::Env {
+    lander_protocol::Env {
+        world: lander_protocol::World::default(),
+        scoring: lander_protocol::Scoring::default(),
+        x0,
+        pad_x,
+    }
+}

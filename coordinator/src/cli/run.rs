@@ -196,10 +196,10 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     } else {
         println!(
             "{} trial {} (seed {}): {} after {} generations, {} restarts, {:.1}s; best fitness {:.1}",
-            summary.method,
-            summary.trial,
-            summary.seed,
-            if summary.landed { "landed" } else { "did not land" },
+            summary.id.method,
+            summary.id.trial,
+            summary.id.seed,
+            if summary.id.landed { "landed" } else { "did not land" },
             summary.generations,
             summary.restarts,
             wall_s,

@@ -3,20 +3,13 @@
 
 use super::*;
 use crate::{reference, score};
-use lander_protocol::{GuideParams, Scoring, World};
+use lander_protocol::GuideParams;
 use proptest::prelude::*;
 
 const G: f64 = 1.63 / 60.0;
 const A: f64 = (350.0 / 60.0) / 100.0;
 
-fn env(x0: f64, pad_x: f64) -> Env {
-    Env {
-        world: World::default(),
-        scoring: Scoring::default(),
-        x0,
-        pad_x,
-    }
-}
+use crate::test_env as env;
 
 fn state(x: f64, y: f64, vx: f64, vy: f64, rot: f64) -> State {
     State { x, y, vx, vy, rot }
@@ -227,6 +220,25 @@ fn n_counts_decoded_ticks_only_until_touchdown() {
     assert!(o.ticks > 7);
 }
 
+/// Flies `actions` one tick at a time from `start`, fast and reference side
+/// by side, until touchdown.
+fn ticks_match_the_reference(start: State, actions: &[u8]) -> Result<(), TestCaseError> {
+    let e = env(200.0, 100.0);
+    let mut fast = Lander::with_state(&e, start, 0);
+    let mut slow = start;
+    for &a in actions {
+        let a = Action::from_index(a).unwrap();
+        fast.run(a, 1);
+        reference::tick(&e, &mut slow, a);
+        prop_assert_eq!(fast.state(), slow);
+        prop_assert_eq!(fast.touched_down(), reference::touches_ground(&e, &slow));
+        if fast.touched_down() {
+            break;
+        }
+    }
+    Ok(())
+}
+
 fn arb_genome() -> impl Strategy<Value = Vec<Gene>> {
     proptest::collection::vec(
         (0u8..4, 0u8..=30).prop_map(|(a, d)| Gene::new(Action::from_index(a).unwrap(), d)),
@@ -253,17 +265,7 @@ proptest! {
         vx in -3.0f64..3.0, vy in -3.0f64..3.0, rot in -PI..TAU,
         actions in proptest::collection::vec(0u8..4, 1..40),
     ) {
-        let e = env(200.0, 100.0);
-        let mut fast = Lander::with_state(&e, state(x, y, vx, vy, rot), 0);
-        let mut slow = fast.state();
-        for a in actions {
-            let a = Action::from_index(a).unwrap();
-            fast.run(a, 1);
-            reference::tick(&e, &mut slow, a);
-            prop_assert_eq!(fast.state(), slow);
-            prop_assert_eq!(fast.touched_down(), reference::touches_ground(&e, &slow));
-            if fast.touched_down() { break; }
-        }
+        ticks_match_the_reference(state(x, y, vx, vy, rot), &actions)?;
     }
 }
 
@@ -303,16 +305,6 @@ proptest! {
         x in 0.0f64..400.0, y in 55.0f64..80.0, vy in -0.5f64..0.5, rot in -PI..TAU,
         actions in proptest::collection::vec(0u8..2, 1..80),
     ) {
-        let e = env(200.0, 100.0);
-        let mut fast = Lander::with_state(&e, state(x, y, 0.0, vy, rot), 0);
-        let mut slow = fast.state();
-        for a in actions {
-            let a = Action::from_index(a).unwrap();
-            fast.run(a, 1);
-            reference::tick(&e, &mut slow, a);
-            prop_assert_eq!(fast.state(), slow);
-            prop_assert_eq!(fast.touched_down(), reference::touches_ground(&e, &slow));
-            if fast.touched_down() { break; }
-        }
+        ticks_match_the_reference(state(x, y, 0.0, vy, rot), &actions)?;
     }
 }
