@@ -316,3 +316,27 @@ fn bench_compares_the_modes_and_their_results_agree() {
     assert!(!bad.status.success());
     assert!(stderr(&bad).contains("--transports"));
 }
+
+#[test]
+fn stress_kills_workers_and_loses_nothing() {
+    let iox = Iox::new("stress");
+    let out = iox.lander(&[
+        "bench",
+        "--stress",
+        "--population",
+        "3000",
+        "--generations",
+        "20",
+        "--kill-rate",
+        "20",
+        "--json",
+    ]);
+    let report = json_out(&out);
+    assert_eq!(report["results_match"], true);
+    assert_eq!(report["evaluated"], 60_000);
+    assert_eq!(report["expected"], 60_000);
+    assert!(
+        report["kills"].as_u64().unwrap() >= 1,
+        "no worker was killed: {report}"
+    );
+}

@@ -21,12 +21,12 @@ pub struct BenchArgs {
     /// Workers (and threads) for the parallel modes.
     #[arg(long, default_value_t = 2)]
     workers: usize,
-    /// Generations in the workload.
-    #[arg(long, default_value_t = 30)]
-    generations: u64,
-    /// Genomes per generation.
-    #[arg(long, default_value_t = 100)]
-    population: usize,
+    /// Generations in the workload [default: 30, or 60 with --stress].
+    #[arg(long)]
+    generations: Option<u64>,
+    /// Genomes per generation [default: 100, or 10000 with --stress].
+    #[arg(long)]
+    population: Option<usize>,
     #[arg(long, value_enum, default_value = "guided")]
     method: MethodArg,
     /// Rounds; each round runs every mode once, in a rotating order.
@@ -40,6 +40,14 @@ pub struct BenchArgs {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
+    /// Churn instead of comparison: small chunks over iceoryx2 workers that
+    /// are killed and respawned at random, checked genome by genome against
+    /// in-process evaluation.
+    #[arg(long)]
+    stress: bool,
+    /// With --stress: worker kills per second, on average.
+    #[arg(long, value_name = "PER_S", default_value_t = 2.0)]
+    kill_rate: f64,
 }
 
 #[derive(Serialize)]
@@ -60,6 +68,14 @@ struct Report {
     modes: Vec<ModeReport>,
     ratios: Ratios,
     hashes_agree: bool,
+}
+
+fn args_for_stress(args: &BenchArgs) -> super::stress::StressArgs {
+    super::stress::StressArgs {
+        workers: args.workers,
+        kill_rate: args.kill_rate,
+        json: args.json,
+    }
 }
 
 fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
@@ -107,7 +123,6 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         "--workers must be 1 to {MAX_WORKERS} (got {})",
         args.workers
     );
-    anyhow::ensure!(args.generations >= 1, "--generations must be at least 1");
     anyhow::ensure!(args.rounds >= 1, "--rounds must be at least 1");
     let mut cfg = match &args.config {
         Some(path) => RunConfig::load(path)?,
@@ -115,9 +130,15 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     };
     cfg.method = Method::from(args.method);
     cfg.seed = args.seed;
-    cfg.ga.population = args.population;
+    let (population, generations) = if args.stress { (10_000, 60) } else { (100, 30) };
+    cfg.ga.population = args.population.unwrap_or(population);
     cfg.validate()?;
-    let work = Workload::new(&cfg, args.generations);
+    let generations = args.generations.unwrap_or(generations);
+    anyhow::ensure!(generations >= 1, "--generations must be at least 1");
+    let work = Workload::new(&cfg, generations);
+    if args.stress {
+        return super::stress::stress(&args_for_stress(&args), &work);
+    }
     let mut modes = modes(&args)?;
     anyhow::ensure!(!modes.is_empty(), "--transports named no transport");
 
@@ -156,8 +177,8 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         && reports.windows(2).all(|w| w[0].hash == w[1].hash);
     let report = Report {
         method: cfg.method.name(),
-        population: args.population,
-        generations: args.generations,
+        population: cfg.ga.population,
+        generations,
         rounds: args.rounds,
         workers: n,
         modes: reports,

@@ -3,6 +3,7 @@
 mod bench;
 mod flight;
 mod run;
+mod stress;
 
 use clap::{Parser, Subcommand};
 
