@@ -13,7 +13,7 @@ mod link;
 mod spawn;
 
 use crate::evaluator::{Batch, EvalError, Evaluator};
-use iceoryx2::port::listener::Listener;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use lander_protocol::iox::{self, RunNames};
@@ -245,10 +245,12 @@ impl IpcPool {
             .min()
             .map(|d| d.saturating_duration_since(Instant::now()));
         let slice = until_deadline.map_or(SLICE, |d| d.min(SLICE));
-        self.wake
-            .timed_wait(|_| {}, slice)
-            .map_err(iox::fail("waiting for workers"))?;
-        Ok(())
+        match self.wake.timed_wait(|_| {}, slice) {
+            // A signal, such as SIGCHLD from a worker that died, only ends
+            // the sleep early; the caller looks around anyway.
+            Ok(_) | Err(ListenerWaitError::InterruptSignal) => Ok(()),
+            Err(e) => Err(iox::fail("waiting for workers")(e).into()),
+        }
     }
 
     fn tell_waiting(&mut self) {
