@@ -12,10 +12,12 @@
 
 pub mod evaluate;
 pub mod guide;
+pub mod qlearn;
 pub mod reference;
 pub mod score;
 pub mod serve;
 pub mod sim;
+pub mod tiles;
 
 pub use evaluate::{evaluate, run_job};
 pub use guide::guide;

@@ -1,0 +1,324 @@
+//! Watkins's Q(λ), linear over binary features, with ε-greedy actions and
+//! accumulating traces (Sutton & Barto 1998, Figure 8.8). A trace is cut
+//! when an exploratory, non-greedy action is taken, and decays by γλ after
+//! a greedy one.
+//!
+//! The agent knows nothing of landers: it learns any [`Task`] that names
+//! its active features. Traces are kept sparse, so a step costs in
+//! proportion to the features touched recently, not to the weight count.
+
+use rand::Rng;
+
+/// An episodic problem with actions `0..ACTIONS` and binary features.
+pub trait Task {
+    const ACTIONS: usize;
+    /// Features active for `(current state, action)`, always this many.
+    fn active(&self) -> usize;
+    /// Starts an episode.
+    fn reset(&mut self);
+    /// Writes the features of `(current state, action)` into `out`.
+    fn features(&self, action: u8, out: &mut [usize]);
+    /// Takes `action`: the reward, and whether the episode is over.
+    fn step(&mut self, action: u8) -> (f64, bool);
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QParams {
+    /// Step size per feature.
+    pub alpha: f64,
+    pub gamma: f64,
+    pub lambda: f64,
+    pub epsilon: f64,
+}
+
+/// Traces smaller than this are dropped: they would change a weight by
+/// less than a millionth of a step.
+const TRACE_FLOOR: f64 = 1e-6;
+
+/// What to do with the traces after choosing the next action.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TraceRule {
+    Decay,
+    Cut,
+}
+
+/// Watkins's rule: the traces survive only a greedy choice, one whose
+/// value is the largest of `qs`.
+pub fn trace_rule(qs: &[f64], chosen: u8) -> TraceRule {
+    if qs[usize::from(chosen)] >= max(qs) {
+        TraceRule::Decay
+    } else {
+        TraceRule::Cut
+    }
+}
+
+fn max(qs: &[f64]) -> f64 {
+    qs.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// One episode's account.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EpisodeStats {
+    pub reward: f64,
+    pub steps: u32,
+}
+
+pub struct QLambda {
+    pub params: QParams,
+    weights: Vec<f64>,
+    trace: Vec<f64>,
+    /// Indices with a non-zero trace.
+    traced: Vec<usize>,
+}
+
+impl QLambda {
+    pub fn new(size: usize, params: QParams) -> QLambda {
+        QLambda {
+            params,
+            weights: vec![0.0; size],
+            trace: vec![0.0; size],
+            traced: Vec::new(),
+        }
+    }
+
+    pub fn q(&self, features: &[usize]) -> f64 {
+        features.iter().map(|&i| self.weights[i]).sum()
+    }
+
+    pub fn weight(&self, i: usize) -> f64 {
+        self.weights[i]
+    }
+
+    /// The non-zero traces.
+    pub fn traces(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        self.traced.iter().map(|&i| (i, self.trace[i]))
+    }
+
+    /// Accumulating traces: each active feature's trace grows by one.
+    pub fn accumulate(&mut self, features: &[usize]) {
+        for &i in features {
+            if self.trace[i] == 0.0 {
+                self.traced.push(i);
+            }
+            self.trace[i] += 1.0;
+        }
+    }
+
+    /// Applies `rule` to every trace.
+    pub fn apply(&mut self, rule: TraceRule) {
+        match rule {
+            TraceRule::Cut => {
+                for &i in &self.traced {
+                    self.trace[i] = 0.0;
+                }
+                self.traced.clear();
+            }
+            TraceRule::Decay => {
+                let k = self.params.gamma * self.params.lambda;
+                let trace = &mut self.trace;
+                self.traced.retain(|&i| {
+                    trace[i] *= k;
+                    if trace[i] < TRACE_FLOOR {
+                        trace[i] = 0.0;
+                        return false;
+                    }
+                    true
+                });
+            }
+        }
+    }
+
+    fn learn(&mut self, delta: f64) {
+        let step = self.params.alpha * delta;
+        for &i in &self.traced {
+            self.weights[i] += step * self.trace[i];
+        }
+    }
+
+    /// Every action's value in the current state.
+    fn values<T: Task>(&self, task: &T, buf: &mut [usize]) -> Vec<f64> {
+        (0..T::ACTIONS as u8)
+            .map(|a| {
+                task.features(a, buf);
+                self.q(buf)
+            })
+            .collect()
+    }
+
+    /// ε-greedy, with ties among the best broken at random: with all
+    /// weights at zero, a fixed tie-break would never explore.
+    fn choose(&self, qs: &[f64], rng: &mut impl Rng) -> u8 {
+        if rng.random::<f64>() < self.params.epsilon {
+            return rng.random_range(0..qs.len() as u8);
+        }
+        let best = max(qs);
+        let ties = qs.iter().filter(|&&q| q == best).count();
+        let pick = rng.random_range(0..ties);
+        let mut tied = qs.iter().enumerate().filter(|&(_, &q)| q == best);
+        tied.nth(pick).map_or(0, |(a, _)| a as u8)
+    }
+
+    /// Runs one episode of `task`, learning as it goes, for at most
+    /// `max_steps` decisions.
+    pub fn episode<T: Task>(
+        &mut self,
+        task: &mut T,
+        rng: &mut impl Rng,
+        max_steps: u32,
+    ) -> EpisodeStats {
+        task.reset();
+        self.apply(TraceRule::Cut);
+        let mut buf = vec![0usize; task.active()];
+        let qs = self.values(task, &mut buf);
+        let mut action = self.choose(&qs, rng);
+        let mut stats = EpisodeStats {
+            reward: 0.0,
+            steps: 0,
+        };
+        while stats.steps < max_steps {
+            task.features(action, &mut buf);
+            self.accumulate(&buf);
+            let q_sa = self.q(&buf);
+            let (reward, done) = task.step(action);
+            stats.reward += reward;
+            stats.steps += 1;
+            if done {
+                self.learn(reward - q_sa);
+                break;
+            }
+            let qs = self.values(task, &mut buf);
+            self.learn(reward + self.params.gamma * max(&qs) - q_sa);
+            let next = self.choose(&qs, rng);
+            self.apply(trace_rule(&qs, next));
+            action = next;
+        }
+        stats
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    /// A corridor of `N` cells: start at 0, +1 for reaching the last cell.
+    /// Tabular, so each (cell, action) is one feature.
+    struct Corridor {
+        at: usize,
+    }
+
+    const N: usize = 6;
+
+    impl Task for Corridor {
+        const ACTIONS: usize = 2;
+        fn active(&self) -> usize {
+            1
+        }
+        fn reset(&mut self) {
+            self.at = 0;
+        }
+        fn features(&self, action: u8, out: &mut [usize]) {
+            out[0] = self.at * 2 + usize::from(action);
+        }
+        fn step(&mut self, action: u8) -> (f64, bool) {
+            self.at = if action == 1 {
+                self.at + 1
+            } else {
+                self.at.saturating_sub(1)
+            };
+            if self.at == N - 1 {
+                (1.0, true)
+            } else {
+                (0.0, false)
+            }
+        }
+    }
+
+    fn params() -> QParams {
+        QParams {
+            alpha: 0.5,
+            gamma: 0.9,
+            lambda: 0.8,
+            epsilon: 0.1,
+        }
+    }
+
+    #[test]
+    fn learns_the_optimal_policy_and_values_of_a_corridor() {
+        let mut agent = QLambda::new(2 * N, params());
+        let mut task = Corridor { at: 0 };
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for _ in 0..500 {
+            agent.episode(&mut task, &mut rng, 1000);
+        }
+        for cell in 0..N - 1 {
+            let (left, right) = (agent.weight(cell * 2), agent.weight(cell * 2 + 1));
+            assert!(
+                right > left,
+                "cell {cell}: right {right} should beat left {left}"
+            );
+            // The optimal value of going right from `cell` is γ^(steps left − 1).
+            let optimal = 0.9f64.powi((N - 2 - cell) as i32);
+            assert!(
+                (right - optimal).abs() < 0.05,
+                "cell {cell}: {right} vs {optimal}"
+            );
+        }
+        // Greedy from the start walks straight to the goal.
+        agent.params.epsilon = 0.0;
+        let stats = agent.episode(&mut task, &mut rng, 1000);
+        assert_eq!(stats.steps as usize, N - 1);
+    }
+
+    #[test]
+    fn traces_decay_by_gamma_lambda_after_greedy_and_are_cut_after_exploring() {
+        let mut agent = QLambda::new(16, params());
+        agent.accumulate(&[3, 5]);
+        agent.accumulate(&[5]);
+        let before: Vec<(usize, f64)> = agent.traces().collect();
+        assert_eq!(before, vec![(3, 1.0), (5, 2.0)]);
+        agent.apply(trace_rule(&[0.0, 1.0], 1));
+        let k = 0.9 * 0.8;
+        assert_eq!(
+            agent.traces().collect::<Vec<_>>(),
+            vec![(3, k), (5, 2.0 * k)]
+        );
+        agent.apply(trace_rule(&[0.0, 1.0], 0));
+        assert_eq!(agent.traces().count(), 0);
+        agent.accumulate(&[7]);
+        assert_eq!(agent.traces().collect::<Vec<_>>(), vec![(7, 1.0)]);
+    }
+
+    #[test]
+    fn an_exploratory_action_that_is_also_greedy_keeps_the_traces() {
+        let qs = [0.5, 0.2, 0.9, 0.9];
+        assert_eq!(trace_rule(&qs, 2), TraceRule::Decay);
+        assert_eq!(
+            trace_rule(&qs, 3),
+            TraceRule::Decay,
+            "tied for best is greedy"
+        );
+        assert_eq!(trace_rule(&qs, 0), TraceRule::Cut);
+    }
+
+    #[test]
+    fn the_same_seed_learns_the_same_weights() {
+        let run = |seed| {
+            let mut agent = QLambda::new(2 * N, params());
+            let mut task = Corridor { at: 0 };
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let steps: Vec<u32> = (0..50)
+                .map(|_| agent.episode(&mut task, &mut rng, 1000).steps)
+                .collect();
+            (
+                steps,
+                (0..2 * N)
+                    .map(|i| agent.weight(i).to_bits())
+                    .collect::<Vec<_>>(),
+            )
+        };
+        assert_eq!(run(9), run(9));
+        assert_ne!(run(9), run(10));
+    }
+}
