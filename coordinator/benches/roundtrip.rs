@@ -42,10 +42,7 @@ fn worker_pool() -> IpcPool {
 }
 
 fn roundtrip(c: &mut Criterion) {
-    let mut cfg = RunConfig {
-        method: Method::Ga,
-        ..RunConfig::default()
-    };
+    let mut cfg = RunConfig::default();
     let mut pool = worker_pool();
     let mut local = InProcess::new(1).expect("one thread");
     let mut group = c.benchmark_group("chunk");
@@ -62,7 +59,7 @@ fn roundtrip(c: &mut Criterion) {
                         evaluator
                             .evaluate(Batch {
                                 env: env(&cfg, 0),
-                                method: cfg.method,
+                                method: Method::Ga,
                                 guide: cfg.guided,
                                 key,
                                 max_duration: cfg.ga.max_duration,

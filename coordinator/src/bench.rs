@@ -9,7 +9,7 @@ use crate::ga::{random_population, Genome};
 use crate::pool::{ChunkTiming, IpcPool};
 use crate::trial::env;
 use lander_protocol::stream::streams;
-use lander_protocol::{Evaluation, StreamKey};
+use lander_protocol::{Evaluation, Method, StreamKey};
 use serde::Serialize;
 use std::hash::{DefaultHasher, Hash, Hasher};
 use std::time::{Duration, Instant};
@@ -18,11 +18,12 @@ use std::time::{Duration, Instant};
 /// configuration's seed, so every mode and every round sees the same work.
 pub struct Workload {
     pub cfg: RunConfig,
+    pub method: Method,
     pub generations: Vec<(StreamKey, Vec<Genome>)>,
 }
 
 impl Workload {
-    pub fn new(cfg: &RunConfig, generations: u64) -> Workload {
+    pub fn new(cfg: &RunConfig, method: Method, generations: u64) -> Workload {
         let generations = (1..=generations)
             .map(|g| {
                 let key = StreamKey::new(cfg.seed, cfg.trial, 0, g);
@@ -34,6 +35,7 @@ impl Workload {
             .collect();
         Workload {
             cfg: cfg.clone(),
+            method,
             generations,
         }
     }
@@ -111,7 +113,7 @@ impl Mode {
         let started = Instant::now();
         let evaluations = self.evaluator.as_evaluator().evaluate(Batch {
             env: env(&work.cfg, 0),
-            method: work.cfg.method,
+            method: work.method,
             guide: work.cfg.guided,
             key: *key,
             max_duration: work.cfg.ga.max_duration,

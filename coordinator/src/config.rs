@@ -2,16 +2,45 @@
 //! defaults, read from TOML and validated field by field.
 
 use crate::ga::GaParams;
-use lander_protocol::{GuideParams, Method, Scoring, World};
+use lander_protocol::{GuideParams, LearnParams, Method, Scoring, World};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+/// What a run does: evolve with the general or the guided GA, or learn
+/// with the Q(λ) baseline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Approach {
+    Ga,
+    Guided,
+    Qlearning,
+}
+
+impl Approach {
+    pub fn name(self) -> &'static str {
+        match self {
+            Approach::Ga => "ga",
+            Approach::Guided => "guided",
+            Approach::Qlearning => "qlearning",
+        }
+    }
+
+    /// How a GA evaluates its genomes; `None` for Q-learning.
+    pub fn evolution(self) -> Option<Method> {
+        match self {
+            Approach::Ga => Some(Method::Ga),
+            Approach::Guided => Some(Method::Guided),
+            Approach::Qlearning => None,
+        }
+    }
+}
 
 /// Everything one trial needs. Every key is optional in the file; unknown
 /// keys are errors.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RunConfig {
-    pub method: Method,
+    pub method: Approach,
     pub seed: u64,
     /// Trials are numbered from 1; trial `t` draws `x0` and `pad_x` from
     /// `(seed, t)`.
@@ -22,12 +51,13 @@ pub struct RunConfig {
     pub scoring: Scoring,
     pub guided: GuideParams,
     pub ga: GaParams,
+    pub qlearning: LearnParams,
 }
 
 impl Default for RunConfig {
     fn default() -> Self {
         RunConfig {
-            method: Method::Guided,
+            method: Approach::Guided,
             seed: 1,
             trial: 1,
             threads: 0,
@@ -35,6 +65,7 @@ impl Default for RunConfig {
             scoring: Scoring::default(),
             guided: GuideParams::default(),
             ga: GaParams::default(),
+            qlearning: LearnParams::default(),
         }
     }
 }
@@ -109,8 +140,37 @@ impl RunConfig {
         finite("guided.h2", g.h2)?;
         finite("guided.w_t", g.w_t)?;
 
-        self.ga.validate()
+        self.ga.validate()?;
+        validate_learning(&self.qlearning)
     }
+}
+
+fn validate_learning(q: &LearnParams) -> Result<(), ConfigError> {
+    check(
+        "qlearning.decision_ticks",
+        q.decision_ticks >= 1,
+        "must be at least 1",
+    )?;
+    check(
+        "qlearning.tilings",
+        (1..=64).contains(&q.tilings),
+        "must be 1 to 64",
+    )?;
+    check(
+        "qlearning.memory_bits",
+        (4..=28).contains(&q.memory_bits),
+        "must be 4 to 28",
+    )?;
+    for w in q.tile_widths {
+        positive("qlearning.tile_widths", w)?;
+    }
+    positive("qlearning.step_size", q.step_size)?;
+    probability("qlearning.gamma", q.gamma)?;
+    probability("qlearning.lambda", q.lambda)?;
+    probability("qlearning.epsilon", q.epsilon)?;
+    finite("qlearning.safe_bonus", q.safe_bonus)?;
+    finite("qlearning.crash_penalty", q.crash_penalty)?;
+    check("qlearning.episodes", q.episodes >= 1, "must be at least 1")
 }
 
 pub(crate) fn check(field: &'static str, ok: bool, problem: &str) -> Result<(), ConfigError> {
@@ -177,7 +237,7 @@ mod tests {
     #[test]
     fn overrides_are_read_from_their_sections() {
         let cfg = parse("method = \"ga\"\n[ga]\npopulation = 20\ncrossover = \"buckland\"\n[world]\nwidth = 500.0\n").unwrap();
-        assert_eq!(cfg.method, Method::Ga);
+        assert_eq!(cfg.method, Approach::Ga);
         assert_eq!(cfg.ga.population, 20);
         assert_eq!(cfg.ga.crossover, crate::ga::Crossover::Buckland);
         assert_eq!(cfg.world.width, 500.0);
@@ -196,6 +256,13 @@ mod tests {
             ("[world]\nheight = inf", "world.height"),
             ("[guided]\nepsilon = 2.0", "guided.epsilon"),
             ("[scoring]\nw2 = nan", "scoring.w2"),
+            ("[qlearning]\ntilings = 0", "qlearning.tilings"),
+            ("[qlearning]\ngamma = 1.5", "qlearning.gamma"),
+            (
+                "[qlearning]\ntile_widths = [40.0, 30.0, 0.0, 0.5, 0.25]",
+                "qlearning.tile_widths",
+            ),
+            ("[qlearning]\nepisodes = 0", "qlearning.episodes"),
         ] {
             let err = parse(text).unwrap_err();
             assert!(err.contains(field), "{text:?} gave {err:?}");

@@ -6,7 +6,7 @@ use crate::config::RunConfig;
 use crate::evaluator::{Batch, EvalError, Evaluator};
 use crate::ga::{next_generation, random_population, Genome};
 use lander_protocol::stream::streams;
-use lander_protocol::{Env, StreamKey};
+use lander_protocol::{Env, Method, StreamKey};
 use lander_worker::{Evaluation, Outcome};
 use rand::Rng;
 use serde::Serialize;
@@ -76,6 +76,8 @@ pub type Observer<'a> = dyn FnMut(&Generation) -> Result<(), ObserveError> + 'a;
 
 #[derive(Debug, thiserror::Error)]
 pub enum TrialError {
+    #[error("{0} is not a genetic algorithm; it trains with lander_worker::learn::train")]
+    NotEvolution(&'static str),
     #[error(transparent)]
     Eval(#[from] EvalError),
     #[error(transparent)]
@@ -88,11 +90,15 @@ pub fn run_trial(
     evaluator: &mut dyn Evaluator,
     observe: &mut Observer<'_>,
 ) -> Result<TrialResult, TrialError> {
+    let method = cfg
+        .method
+        .evolution()
+        .ok_or(TrialError::NotEvolution(cfg.method.name()))?;
     let mut index = 0;
     let mut restart = 0;
     loop {
         let env = env(cfg, restart);
-        let attempt = run_attempt(cfg, &env, restart, &mut index, evaluator, observe)?;
+        let attempt = run_attempt(cfg, method, &env, restart, &mut index, evaluator, observe)?;
         let out_of_restarts = restart >= cfg.ga.max_restarts;
         if attempt.landed || out_of_restarts {
             return Ok(TrialResult {
@@ -115,6 +121,7 @@ struct Attempt {
 
 fn run_attempt(
     cfg: &RunConfig,
+    method: Method,
     env: &Env,
     restart: u64,
     index: &mut u64,
@@ -127,7 +134,7 @@ fn run_attempt(
     for generation in 1..=cfg.ga.max_generations.max(1) {
         let evaluations = evaluator.evaluate(Batch {
             env: *env,
-            method: cfg.method,
+            method,
             guide: cfg.guided,
             key: key(generation),
             max_duration: cfg.ga.max_duration,

@@ -1,10 +1,10 @@
 //! A trial as a whole: the same result whatever the thread count, restarts
 //! that keep `x0` and draw a new pad, and the paper's headline behaviour.
 
+use lander_coordinator::config::Approach as Method;
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::InProcess;
 use lander_coordinator::trial::{env, run_trial, Generation, TrialResult};
-use lander_protocol::Method;
 use proptest::prelude::*;
 
 fn small(method: Method, seed: u64) -> RunConfig {

@@ -17,5 +17,5 @@ pub mod wire;
 
 pub use genome::{format_genome, parse_genome, Action, Gene, GenomeError};
 pub use outcome::{Evaluation, Outcome, State};
-pub use params::{Env, GuideParams, Method, Scoring, World};
+pub use params::{Env, GuideParams, LearnParams, Method, Scoring, World};
 pub use stream::StreamKey;

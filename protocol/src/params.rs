@@ -130,6 +130,50 @@ impl Default for GuideParams {
     }
 }
 
+/// The Q(λ) baseline (SPEC §5).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ZeroCopySend)]
+#[type_name("lander::LearnParams")]
+#[serde(default, deny_unknown_fields)]
+pub struct LearnParams {
+    /// Ticks each decision's action is held for.
+    pub decision_ticks: u32,
+    pub tilings: u32,
+    /// The tile coder hashes into `2^memory_bits` weights.
+    pub memory_bits: u32,
+    /// Tile widths for `(x − pad_x, altitude, vx, vy, rot)`.
+    pub tile_widths: [f64; 5],
+    /// α times the number of tilings: each feature's step is
+    /// `step_size / tilings`.
+    pub step_size: f64,
+    pub gamma: f64,
+    pub lambda: f64,
+    pub epsilon: f64,
+    /// Added to the last reward of a safe landing.
+    pub safe_bonus: f64,
+    /// Subtracted from the last reward of a crash.
+    pub crash_penalty: f64,
+    pub episodes: u32,
+}
+
+impl Default for LearnParams {
+    fn default() -> Self {
+        LearnParams {
+            decision_ticks: 5,
+            tilings: 16,
+            memory_bits: 18,
+            tile_widths: [40.0, 30.0, 0.5, 0.5, 0.25],
+            step_size: 0.1,
+            gamma: 0.99,
+            lambda: 0.9,
+            epsilon: 0.05,
+            safe_bonus: 1000.0,
+            crash_penalty: 100.0,
+            episodes: 5000,
+        }
+    }
+}
+
 /// One flight's environment: the world, the start column and the pad.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, ZeroCopySend)]

@@ -33,6 +33,8 @@ pub mod streams {
     pub const START: u64 = u64::MAX;
     /// A restart's pad position (key with generation 0).
     pub const PAD: u64 = u64::MAX - 1;
+    /// A Q(λ) trial's exploration (key with restart 0, generation 0).
+    pub const LEARN: u64 = u64::MAX - 2;
 
     /// The guided pass over the individual at `index` in the population.
     pub const fn guide(index: u64) -> u64 {

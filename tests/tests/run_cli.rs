@@ -220,3 +220,35 @@ fn guide_with_epsilon_zero_is_deterministic_and_needs_no_seed() {
     assert!(!bad.status.success());
     assert!(stderr(&bad).contains("guided.epsilon"), "{}", stderr(&bad));
 }
+
+#[test]
+fn qlearning_swaps_in_and_repeats_exactly() {
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let args = ["--method", "qlearning", "--episodes", "120"];
+    let first = run_in(a.path(), &args);
+    let second = run_in(b.path(), &args);
+    assert_eq!(without_wall_time(first.clone()), without_wall_time(second));
+    assert_eq!(first["method"], "qlearning");
+    assert_eq!(first["episodes"], 120);
+    assert!(first.get("first_safe_episode").is_some());
+    let rate = first["landing_rate_last_100"].as_f64().unwrap();
+    assert!((0.0..=1.0).contains(&rate));
+    let log = |d: &tempfile::TempDir| fs::read(d.path().join("episodes.jsonl")).unwrap();
+    assert_eq!(log(&a), log(&b));
+    let text = String::from_utf8(log(&a)).unwrap();
+    let lines: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 120);
+    for key in ["episode", "return", "ticks", "safe", "epsilon"] {
+        assert!(lines[0].get(key).is_some(), "episodes.jsonl lacks {key}");
+    }
+    let over_workers = lander(&["run", "--method", "qlearning", "--workers", "2"]);
+    assert!(!over_workers.status.success());
+    assert!(
+        stderr(&over_workers).contains("in-process"),
+        "{}",
+        stderr(&over_workers)
+    );
+}

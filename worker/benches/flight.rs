@@ -1,10 +1,14 @@
 //! Simulated ticks per second of `fly` against the straightforward
-//! reference, and the cost of one guided generation of 100 genomes.
+//! reference, the cost of one guided generation of 100 genomes, and Q(λ)
+//! decisions per second.
 //!
 //! `cargo bench -p lander-worker --bench flight`
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
-use lander_protocol::{Action, Env, Gene, GuideParams, Method, Scoring, StreamKey, World};
+use lander_protocol::{
+    Action, Env, Gene, GuideParams, LearnParams, Method, Scoring, StreamKey, World,
+};
+use lander_worker::learn::train;
 use lander_worker::{evaluate, fly, reference};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -85,5 +89,30 @@ fn guided_generation(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, flights, guided_generation);
+fn qlearning(c: &mut Criterion) {
+    let env = Env {
+        world: World::default(),
+        scoring: Scoring::default(),
+        x0: 150.0,
+        pad_x: 200.0,
+    };
+    let learn = LearnParams {
+        episodes: 200,
+        ..LearnParams::default()
+    };
+    let key = StreamKey::new(1, 1, 0, 0);
+    let mut decisions = 0u64;
+    train(&env, &GuideParams::default(), &learn, key, &mut |e| {
+        decisions += u64::from(e.decisions)
+    });
+    let mut group = c.benchmark_group("qlearning");
+    group.throughput(Throughput::Elements(decisions));
+    group.sample_size(20);
+    group.bench_function("200 episodes", |b| {
+        b.iter(|| train(&env, &GuideParams::default(), &learn, key, &mut |_| {}))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, flights, guided_generation, qlearning);
 criterion_main!(benches);

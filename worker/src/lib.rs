@@ -12,6 +12,7 @@
 
 pub mod evaluate;
 pub mod guide;
+pub mod learn;
 pub mod qlearn;
 pub mod reference;
 pub mod score;

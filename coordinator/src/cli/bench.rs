@@ -4,11 +4,10 @@ use super::run::{pool_options, MethodArg};
 use anyhow::Context;
 use clap::Args;
 use lander_coordinator::bench::{Mode, ModeEvaluator, ModeReport, Workload};
-use lander_coordinator::config::RunConfig;
+use lander_coordinator::config::{Approach, RunConfig};
 use lander_coordinator::evaluator::InProcess;
 use lander_coordinator::pool::IpcPool;
 use lander_protocol::iox::MAX_WORKERS;
-use lander_protocol::Method;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -128,14 +127,17 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         Some(path) => RunConfig::load(path)?,
         None => RunConfig::default(),
     };
-    cfg.method = Method::from(args.method);
+    cfg.method = Approach::from(args.method);
+    let method = cfg.method.evolution().ok_or_else(|| {
+        anyhow::anyhow!("--method: bench measures GA evaluation; use ga or guided")
+    })?;
     cfg.seed = args.seed;
     let (population, generations) = if args.stress { (10_000, 60) } else { (100, 30) };
     cfg.ga.population = args.population.unwrap_or(population);
     cfg.validate()?;
     let generations = args.generations.unwrap_or(generations);
     anyhow::ensure!(generations >= 1, "--generations must be at least 1");
-    let work = Workload::new(&cfg, generations);
+    let work = Workload::new(&cfg, method, generations);
     if args.stress {
         return super::stress::stress(&args_for_stress(&args), &work);
     }

@@ -2,6 +2,7 @@
 
 mod bench;
 mod flight;
+mod learning;
 mod run;
 mod stress;
 

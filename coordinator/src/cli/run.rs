@@ -3,13 +3,12 @@
 use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use lander_coordinator::config::RunConfig;
+use lander_coordinator::config::{Approach, RunConfig};
 use lander_coordinator::evaluator::{Evaluator, InProcess};
 use lander_coordinator::pool::{IpcPool, PoolOptions};
 use lander_coordinator::report::{write_json, BestRecord, GenerationLog, Summary};
 use lander_coordinator::trial::{run_trial, Generation};
 use lander_protocol::iox::MAX_WORKERS;
-use lander_protocol::Method;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -18,9 +17,13 @@ pub struct RunArgs {
     /// A TOML run configuration; flags given here override it.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
-    /// `ga` (the general GA) or `guided` (with the evolve pass).
+    /// `ga` (the general GA), `guided` (with the evolve pass) or
+    /// `qlearning` (the Q(λ) baseline).
     #[arg(long, value_enum)]
     method: Option<MethodArg>,
+    /// Q-learning episodes per trial (SPEC: 5000).
+    #[arg(long)]
+    episodes: Option<u32>,
     #[arg(long)]
     seed: Option<u64>,
     /// Trial number; `x0` and `pad_x` come from (seed, trial).
@@ -63,13 +66,15 @@ pub struct RunArgs {
 pub enum MethodArg {
     Ga,
     Guided,
+    Qlearning,
 }
 
-impl From<MethodArg> for Method {
-    fn from(m: MethodArg) -> Method {
+impl From<MethodArg> for Approach {
+    fn from(m: MethodArg) -> Approach {
         match m {
-            MethodArg::Ga => Method::Ga,
-            MethodArg::Guided => Method::Guided,
+            MethodArg::Ga => Approach::Ga,
+            MethodArg::Guided => Approach::Guided,
+            MethodArg::Qlearning => Approach::Qlearning,
         }
     }
 }
@@ -80,7 +85,8 @@ impl RunArgs {
             Some(path) => RunConfig::load(path)?,
             None => RunConfig::default(),
         };
-        cfg.method = self.method.map_or(cfg.method, Method::from);
+        cfg.method = self.method.map_or(cfg.method, Approach::from);
+        cfg.qlearning.episodes = self.episodes.unwrap_or(cfg.qlearning.episodes);
         cfg.seed = self.seed.unwrap_or(cfg.seed);
         cfg.trial = self.trial.unwrap_or(cfg.trial);
         cfg.threads = self.threads.unwrap_or(cfg.threads);
@@ -174,6 +180,13 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
             cfg.trial
         ))
     });
+    if cfg.method == Approach::Qlearning {
+        anyhow::ensure!(
+            args.workers == 0 && !args.attach,
+            "--method qlearning runs in-process for now: the Train job over iceoryx2 is not built yet"
+        );
+        return super::learning::learn(&cfg, &out, args.json);
+    }
     let bar = progress_bar(cfg.ga.max_generations);
     let mut evaluator = args.evaluator(&cfg, &bar)?;
     let mut log = GenerationLog::create(&out)?;

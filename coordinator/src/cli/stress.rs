@@ -76,7 +76,7 @@ pub fn stress(args: &StressArgs, work: &Workload) -> anyhow::Result<()> {
     let expected = work.genomes() as u64;
     let r = churned.report();
     let report = StressReport {
-        method: work.cfg.method.name(),
+        method: work.method.name(),
         population: work.cfg.ga.population,
         generations: work.generations.len(),
         workers: args.workers,

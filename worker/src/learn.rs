@@ -1,0 +1,219 @@
+//! The lander as a Q(λ) task (SPEC §5), and one whole training trial.
+//!
+//! Every `decision_ticks` ticks the agent picks an action from the tile-coded
+//! features of `(x − pad_x, altitude, vx, vy, rot)`. The reward of a
+//! decision is the change in R (eq. 3), plus a bonus for a safe landing or
+//! a penalty for a crash when the flight ends.
+
+use crate::qlearn::{QLambda, QParams, Task};
+use crate::score::{is_safe, reinforcement};
+use crate::sim::{Flight, Physics};
+use crate::tiles::TileCoder;
+use lander_protocol::stream::streams;
+use lander_protocol::{Env, GuideParams, LearnParams, StreamKey};
+use serde::Serialize;
+
+pub struct LanderTask {
+    env: Env,
+    guide: GuideParams,
+    learn: LearnParams,
+    physics: Physics,
+    coder: TileCoder,
+    flight: Flight,
+    /// Whether the episode ended in a safe landing.
+    landed: bool,
+}
+
+impl LanderTask {
+    pub fn new(env: &Env, guide: &GuideParams, learn: &LearnParams) -> LanderTask {
+        LanderTask {
+            env: *env,
+            guide: *guide,
+            learn: *learn,
+            physics: Physics::new(env),
+            coder: TileCoder::new(
+                learn.tile_widths,
+                learn.tilings as usize,
+                1 << learn.memory_bits,
+            ),
+            flight: Flight::start(env),
+            landed: false,
+        }
+    }
+
+    fn r(&self) -> f64 {
+        reinforcement(&self.env, &self.guide, &self.flight.state)
+    }
+}
+
+impl Task for LanderTask {
+    const ACTIONS: usize = 4;
+
+    fn active(&self) -> usize {
+        self.coder.tilings()
+    }
+
+    fn reset(&mut self) {
+        self.flight = Flight::start(&self.env);
+        self.landed = false;
+    }
+
+    fn features(&self, action: u8, out: &mut [usize]) {
+        let s = &self.flight.state;
+        let point = [
+            s.x - self.env.pad_x,
+            s.y - self.env.world.ground_y,
+            s.vx,
+            s.vy,
+            s.rot,
+        ];
+        self.coder.features(&point, action, out);
+    }
+
+    fn step(&mut self, action: u8) -> (f64, bool) {
+        let before = self.r();
+        let action =
+            lander_protocol::Action::from_index(action).unwrap_or(lander_protocol::Action::Drift);
+        self.flight
+            .run(&self.physics, action, self.learn.decision_ticks);
+        let reward = self.r() - before;
+        if !self.flight.ended(&self.physics) {
+            return (reward, false);
+        }
+        self.landed = self.flight.touched_down() && is_safe(&self.env, &self.flight.state);
+        let end = if self.landed {
+            self.learn.safe_bonus
+        } else {
+            -self.learn.crash_penalty
+        };
+        (reward + end, true)
+    }
+}
+
+/// One episode, a line of `episodes.jsonl`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct EpisodeRecord {
+    /// Numbered from 1.
+    pub episode: u32,
+    #[serde(rename = "return")]
+    pub reward: f64,
+    pub ticks: u32,
+    /// Actions chosen: one per `decision_ticks` ticks, the last maybe short.
+    pub decisions: u32,
+    pub safe: bool,
+    pub epsilon: f64,
+}
+
+/// A trial's outcome: the episode of the first safe landing, if any, and
+/// the landing rate over the last 100 episodes.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Training {
+    pub episodes: u32,
+    pub first_safe: Option<u32>,
+    pub landing_rate_last_100: f64,
+}
+
+/// Trains a fresh agent for `learn.episodes` episodes of `env`, its draws
+/// keyed by `key`. `observe` sees every episode as it ends.
+pub fn train(
+    env: &Env,
+    guide: &GuideParams,
+    learn: &LearnParams,
+    key: StreamKey,
+    observe: &mut dyn FnMut(&EpisodeRecord),
+) -> Training {
+    let mut task = LanderTask::new(env, guide, learn);
+    let params = QParams {
+        alpha: learn.step_size / f64::from(learn.tilings),
+        gamma: learn.gamma,
+        lambda: learn.lambda,
+        epsilon: learn.epsilon,
+    };
+    let mut agent = QLambda::new(1 << learn.memory_bits, params);
+    let mut rng = key.rng(streams::LEARN);
+    let max_steps = env.world.max_ticks.div_ceil(learn.decision_ticks.max(1)) + 1;
+    let mut first_safe = None;
+    let mut recent = std::collections::VecDeque::with_capacity(100);
+    for episode in 1..=learn.episodes {
+        let stats = agent.episode(&mut task, &mut rng, max_steps);
+        if task.landed && first_safe.is_none() {
+            first_safe = Some(episode);
+        }
+        if recent.len() == 100 {
+            recent.pop_front();
+        }
+        recent.push_back(task.landed);
+        observe(&EpisodeRecord {
+            episode,
+            reward: stats.reward,
+            ticks: task.flight.ticks,
+            decisions: stats.steps,
+            safe: task.landed,
+            epsilon: learn.epsilon,
+        });
+    }
+    let landed = recent.iter().filter(|&&l| l).count();
+    Training {
+        episodes: learn.episodes,
+        first_safe,
+        landing_rate_last_100: landed as f64 / recent.len().max(1) as f64,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_env;
+
+    #[test]
+    fn rewards_are_the_change_in_r_plus_the_ending() {
+        let env = test_env(200.0, 200.0);
+        let learn = LearnParams::default();
+        let mut task = LanderTask::new(&env, &GuideParams::default(), &learn);
+        task.reset();
+        let before = task.r();
+        let (reward, done) = task.step(3);
+        assert!(!done);
+        assert_eq!(task.flight.ticks, 5);
+        assert_eq!(reward, task.r() - before);
+        // Drifting on, the lander falls upside down and crashes.
+        let mut last = (0.0, false);
+        while !last.1 {
+            let before = task.r();
+            last = task.step(3);
+            if last.1 {
+                assert!(!task.landed);
+                assert_eq!(last.0, task.r() - before - 100.0);
+            }
+        }
+    }
+
+    #[test]
+    fn training_is_deterministic_and_reports_every_episode() {
+        let env = test_env(150.0, 200.0);
+        let learn = LearnParams {
+            episodes: 30,
+            ..LearnParams::default()
+        };
+        let run = || {
+            let mut seen = Vec::new();
+            let t = train(
+                &env,
+                &GuideParams::default(),
+                &learn,
+                StreamKey::new(1, 1, 0, 0),
+                &mut |e| seen.push(e.clone()),
+            );
+            (t, seen)
+        };
+        let (a, seen) = run();
+        assert_eq!(run(), (a.clone(), seen.clone()));
+        assert_eq!(seen.len(), 30);
+        assert_eq!(
+            seen.iter().map(|e| e.episode).collect::<Vec<_>>(),
+            (1..=30).collect::<Vec<_>>()
+        );
+        assert!((0.0..=1.0).contains(&a.landing_rate_last_100));
+        assert!(seen.iter().all(|e| e.ticks > 0 && e.reward.is_finite()));
+    }
+}
