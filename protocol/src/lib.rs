@@ -16,6 +16,6 @@ pub mod stream;
 pub mod wire;
 
 pub use genome::{format_genome, parse_genome, Action, Gene, GenomeError};
-pub use outcome::{Evaluation, Outcome, State};
+pub use outcome::{EpisodeRecord, Evaluation, Outcome, State, TrainResult, Training};
 pub use params::{Env, GuideParams, LearnParams, Method, Scoring, World};
 pub use stream::StreamKey;

@@ -1,5 +1,6 @@
-//! What evaluating a genome produces: where the lander ended and how it
-//! scored. Results cross process boundaries, so they live here.
+//! What evaluating a genome produces (where the lander ended and how it
+//! scored) and what a Q(λ) trial produces. Results cross process
+//! boundaries, so they live here.
 
 use serde::{Deserialize, Serialize};
 
@@ -61,5 +62,55 @@ impl Evaluation {
             && o.n <= o.ticks
             && (o.touched_down || !o.safe)
             && self.simulated_ticks >= u64::from(o.ticks - o.n)
+    }
+}
+
+/// One episode, a line of `episodes.jsonl`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeRecord {
+    /// Numbered from 1.
+    pub episode: u32,
+    #[serde(rename = "return")]
+    pub reward: f64,
+    pub ticks: u32,
+    /// Actions chosen: one per `decision_ticks` ticks, the last maybe short.
+    pub decisions: u32,
+    pub safe: bool,
+    pub epsilon: f64,
+}
+
+/// A trial's outcome: the episode of the first safe landing, if any, and
+/// the landing rate over the last 100 episodes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Training {
+    pub episodes: u32,
+    pub first_safe: Option<u32>,
+    pub landing_rate_last_100: f64,
+}
+
+/// A whole Q(λ) trial's results, as a worker returns them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrainResult {
+    pub training: Training,
+    pub episodes: Vec<EpisodeRecord>,
+}
+
+impl TrainResult {
+    /// True when the records are a possible trial of `episodes` episodes:
+    /// numbered in order, finite, and agreeing with the summary.
+    pub fn is_plausible(&self, episodes: u32) -> bool {
+        let numbered = self.episodes.iter().zip(1..).all(|(e, n)| e.episode == n);
+        let finite = self
+            .episodes
+            .iter()
+            .all(|e| e.reward.is_finite() && e.epsilon.is_finite());
+        let first = self.episodes.iter().find(|e| e.safe).map(|e| e.episode);
+        let rate = self.training.landing_rate_last_100;
+        self.episodes.len() == episodes as usize
+            && self.training.episodes == episodes
+            && numbered
+            && finite
+            && first == self.training.first_safe
+            && (0.0..=1.0).contains(&rate)
     }
 }

@@ -7,13 +7,22 @@
 //! postcard-encoded [`ChunkResult`]: each genome's evaluation plus, for the
 //! guided GA, the rewritten actions. That is two variable-length parts, which
 //! one plain slice cannot hold; postcard is also what crosses hosts.
+//!
+//! A job of kind [`KIND_TRAIN`] is a whole Q(λ) trial instead: no genes, and
+//! a postcard [`TrainResult`] back.
 
-use crate::{Action, Env, Evaluation, Gene, GuideParams, Method, StreamKey};
+use crate::{
+    Action, Env, Evaluation, Gene, GuideParams, LearnParams, Method, StreamKey, TrainResult,
+};
 use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever any layout here changes.
-pub const PROTOCOL_VERSION: u32 = 1;
+pub const PROTOCOL_VERSION: u32 = 2;
+
+/// Job kinds.
+pub const KIND_EVALUATE: u32 = 0;
+pub const KIND_TRAIN: u32 = 1;
 
 /// A gene as raw bytes: another process may write any value, so the action
 /// is checked before it becomes an [`Action`].
@@ -41,6 +50,7 @@ impl From<Gene> for WireGene {
 #[type_name("lander::JobHeader")]
 pub struct JobHeader {
     pub version: u32,
+    pub kind: u32,
     pub method: u32,
     pub job_id: u64,
     pub key: StreamKey,
@@ -50,6 +60,7 @@ pub struct JobHeader {
     pub max_duration: u32,
     pub env: Env,
     pub guide: GuideParams,
+    pub learn: LearnParams,
 }
 
 /// What became of a job.
@@ -131,11 +142,35 @@ pub enum WireError {
     Count { expected: usize, got: usize },
     #[error("evaluation {0} is not a possible flight (non-finite or inconsistent)")]
     Implausible(usize),
+    #[error("unknown job kind {0}")]
+    Kind(u32),
+    #[error("a training job carries no genes, but {0} arrived")]
+    GenesInTraining(usize),
+    #[error("training parameters out of range")]
+    Learning,
+    #[error("training result is not a possible trial of {0} episodes")]
+    ImplausibleTraining(u32),
 }
 
 /// A job as the worker sees it once checked.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Job {
+pub enum Job {
+    Evaluate(EvalJob),
+    Train(TrainJob),
+}
+
+/// A whole Q(λ) trial.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrainJob {
+    pub env: Env,
+    pub guide: GuideParams,
+    pub learn: LearnParams,
+    pub key: StreamKey,
+}
+
+/// A chunk of genomes to evaluate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EvalJob {
     pub method: Method,
     pub key: StreamKey,
     pub first_index: u64,
@@ -152,6 +187,40 @@ impl Job {
         if h.version != PROTOCOL_VERSION {
             return Err(WireError::Version { got: h.version });
         }
+        match h.kind {
+            KIND_EVALUATE => EvalJob::from_wire(h, genes).map(Job::Evaluate),
+            KIND_TRAIN => TrainJob::from_wire(h, genes).map(Job::Train),
+            other => Err(WireError::Kind(other)),
+        }
+    }
+}
+
+impl TrainJob {
+    fn from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<TrainJob, WireError> {
+        if !genes.is_empty() {
+            return Err(WireError::GenesInTraining(genes.len()));
+        }
+        let l = &h.learn;
+        // The worker allocates 2^memory_bits weights: refuse absurd sizes.
+        let sane = l.decision_ticks >= 1
+            && (1..=64).contains(&l.tilings)
+            && (4..=28).contains(&l.memory_bits)
+            && l.tile_widths.iter().all(|w| w.is_finite() && *w > 0.0)
+            && l.episodes >= 1;
+        if !sane {
+            return Err(WireError::Learning);
+        }
+        Ok(TrainJob {
+            env: h.env,
+            guide: h.guide,
+            learn: h.learn,
+            key: h.key,
+        })
+    }
+}
+
+impl EvalJob {
+    fn from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<EvalJob, WireError> {
         let method = Method::from_code(h.method).ok_or(WireError::Method(h.method))?;
         let expected = h.genomes as usize * h.genome_length as usize;
         if genes.len() != expected || h.genome_length == 0 {
@@ -167,7 +236,7 @@ impl Job {
             .enumerate()
             .map(|(index, g)| check_gene(index, *g, h.max_duration))
             .collect::<Result<_, _>>()?;
-        Ok(Job {
+        Ok(EvalJob {
             method,
             key: h.key,
             first_index: h.first_index,
@@ -196,8 +265,7 @@ fn check_gene(index: usize, g: WireGene, max: u32) -> Result<Gene, WireError> {
 
 impl ChunkResult {
     pub fn encode(&self) -> Vec<u8> {
-        // Encoding plain structs into a Vec cannot fail.
-        postcard::to_allocvec(self).unwrap_or_default()
+        encode(self)
     }
 
     /// Decodes and checks a result for `genomes` genomes of `length` genes.
@@ -239,6 +307,22 @@ impl ChunkResult {
         }
         Ok(r)
     }
+}
+
+/// Decodes and checks a training result for a trial of `episodes` episodes.
+pub fn decode_training(bytes: &[u8], episodes: u32) -> Result<TrainResult, WireError> {
+    let r: TrainResult =
+        postcard::from_bytes(bytes).map_err(|e| WireError::Decode(e.to_string()))?;
+    if !r.is_plausible(episodes) {
+        return Err(WireError::ImplausibleTraining(episodes));
+    }
+    Ok(r)
+}
+
+/// Encodes any result for the wire.
+pub fn encode(value: &impl Serialize) -> Vec<u8> {
+    // Encoding plain structs into a Vec cannot fail.
+    postcard::to_allocvec(value).unwrap_or_default()
 }
 
 #[cfg(test)]

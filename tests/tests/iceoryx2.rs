@@ -32,12 +32,17 @@ fn never_lands(dir: &Path) -> String {
     path.to_str().unwrap().to_string()
 }
 
-/// Runs `lander run` to the end and returns its summary and log.
+/// Runs `lander run` to the end and returns its summary and its log:
+/// `generations.jsonl`, or `episodes.jsonl` for Q-learning.
 fn finished(iox: &Iox, out: &Path, extra: &[&str]) -> (Value, Vec<u8>) {
     let mut args = vec!["run", "--out", out.to_str().unwrap()];
     args.extend_from_slice(extra);
     let summary = without_wall_time(json_out(&iox.lander(&args)));
-    (summary, fs::read(out.join("generations.jsonl")).unwrap())
+    let log = ["generations.jsonl", "episodes.jsonl"]
+        .iter()
+        .find_map(|name| fs::read(out.join(name)).ok())
+        .expect("the run wrote its log");
+    (summary, log)
 }
 
 fn start(iox: &Iox, out: &Path, extra: &[&str]) -> Child {
@@ -339,4 +344,37 @@ fn stress_kills_workers_and_loses_nothing() {
         report["kills"].as_u64().unwrap() >= 1,
         "no worker was killed: {report}"
     );
+}
+
+#[test]
+fn qlearning_over_workers_matches_in_process_even_when_its_worker_dies() {
+    let iox = Iox::new("qlearn");
+    let args = ["--method", "qlearning", "--episodes", "4000", "--json"];
+    let calm_dir = tempfile::tempdir().unwrap();
+    let (expected, calm_log) = finished(&iox, calm_dir.path(), &args);
+
+    let dir = tempfile::tempdir().unwrap();
+    let mut a = args.to_vec();
+    a.extend(["--workers", "2"]);
+    let over = finished(&iox, dir.path(), &a);
+    assert_eq!(over.0, expected);
+    assert!(over.1 == calm_log, "episodes.jsonl differs over workers");
+
+    // One worker holds the trial; kill it while it learns.
+    let dir = tempfile::tempdir().unwrap();
+    let mut a = args.to_vec();
+    a.extend(["--workers", "1"]);
+    let child = start(&iox, dir.path(), &a);
+    let mut workers = Vec::new();
+    assert!(wait_until(20, || {
+        workers = children_of(child.id(), "lander-worker");
+        !workers.is_empty()
+    }));
+    std::thread::sleep(std::time::Duration::from_millis(150));
+    signal(workers[0], "KILL");
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stderr(&out).contains("exited"), "{}", stderr(&out));
+    assert_eq!(without_wall_time(json_out(&out)), expected);
+    assert!(fs::read(dir.path().join("episodes.jsonl")).unwrap() == calm_log);
 }

@@ -3,7 +3,7 @@
 use crate::guide::guide_in_place;
 use crate::sim::{fly, Physics};
 use lander_protocol::stream::streams;
-use lander_protocol::wire::{ChunkResult, Job};
+use lander_protocol::wire::{ChunkResult, EvalJob};
 use lander_protocol::{Env, Evaluation, Gene, GuideParams, Method, StreamKey};
 
 /// Evaluates `genes` in place. Under `Guided` the genes are first improved
@@ -40,7 +40,7 @@ pub fn evaluate(
 }
 
 /// Evaluates every genome of a checked job, as a worker does.
-pub fn run_job(job: Job) -> ChunkResult {
+pub fn run_job(job: EvalJob) -> ChunkResult {
     let mut genes = job.genes;
     let evaluations = genes
         .chunks_mut(job.genome_length)

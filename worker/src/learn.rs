@@ -10,8 +10,10 @@ use crate::score::{is_safe, reinforcement};
 use crate::sim::{Flight, Physics};
 use crate::tiles::TileCoder;
 use lander_protocol::stream::streams;
-use lander_protocol::{Env, GuideParams, LearnParams, StreamKey};
-use serde::Serialize;
+use lander_protocol::wire::TrainJob;
+use lander_protocol::{
+    Env, EpisodeRecord, GuideParams, LearnParams, StreamKey, TrainResult, Training,
+};
 
 pub struct LanderTask {
     env: Env,
@@ -88,29 +90,6 @@ impl Task for LanderTask {
         };
         (reward + end, true)
     }
-}
-
-/// One episode, a line of `episodes.jsonl`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct EpisodeRecord {
-    /// Numbered from 1.
-    pub episode: u32,
-    #[serde(rename = "return")]
-    pub reward: f64,
-    pub ticks: u32,
-    /// Actions chosen: one per `decision_ticks` ticks, the last maybe short.
-    pub decisions: u32,
-    pub safe: bool,
-    pub epsilon: f64,
-}
-
-/// A trial's outcome: the episode of the first safe landing, if any, and
-/// the landing rate over the last 100 episodes.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Training {
-    pub episodes: u32,
-    pub first_safe: Option<u32>,
-    pub landing_rate_last_100: f64,
 }
 
 /// Trains a fresh agent for `learn.episodes` episodes of `env`, its draws
@@ -216,4 +195,13 @@ mod tests {
         assert!((0.0..=1.0).contains(&a.landing_rate_last_100));
         assert!(seen.iter().all(|e| e.ticks > 0 && e.reward.is_finite()));
     }
+}
+
+/// A whole training trial as a worker serves it: the records and summary.
+pub fn run_training(job: &TrainJob) -> TrainResult {
+    let mut episodes = Vec::with_capacity(job.learn.episodes as usize);
+    let training = train(&job.env, &job.guide, &job.learn, job.key, &mut |e| {
+        episodes.push(e.clone())
+    });
+    TrainResult { training, episodes }
 }

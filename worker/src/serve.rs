@@ -3,11 +3,12 @@
 //! It sleeps in a WaitSet between jobs and never spins.
 
 use crate::evaluate::run_job;
+use crate::learn::run_training;
 use iceoryx2::prelude::*;
 use iceoryx2::waitset::WaitSetRunResult;
 use lander_protocol::iox::{self, IpcError, RunNames, SHUTDOWN_EVENT};
 use lander_protocol::wire::{
-    Job, ResultHeader, Status, WireError, WorkerAnnounce, PROTOCOL_VERSION,
+    self, Job, ResultHeader, Status, WireError, WorkerAnnounce, PROTOCOL_VERSION,
 };
 use std::cell::{Cell, RefCell};
 use std::time::{Duration, Instant};
@@ -128,7 +129,16 @@ pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcEr
         } else if attachment.has_event_from(&tick) {
             node.try_cleanup_dead_nodes();
             if wake_service.dynamic_config().number_of_listeners() == 0 {
-                return stop(Ok(Some(Exit::CoordinatorGone)));
+                // The coordinator says the run is over before it leaves; a
+                // word still waiting here means it ended the run cleanly.
+                let mut shutdown = false;
+                let _ = jobs.try_wait(|ev| shutdown |= ev.id.as_value() == SHUTDOWN_EVENT);
+                let exit = if shutdown {
+                    Exit::RunFinished
+                } else {
+                    Exit::CoordinatorGone
+                };
+                return stop(Ok(Some(exit)));
             }
             if !served.get() {
                 if let Err(e) = announce() {
@@ -197,7 +207,8 @@ fn serve_waiting(
         let header = *request.user_header();
         let started = Instant::now();
         let (status, body) = match Job::from_wire(&header, request.payload()) {
-            Ok(job) => (Status::Done, run_job(job).encode()),
+            Ok(Job::Evaluate(job)) => (Status::Done, run_job(job).encode()),
+            Ok(Job::Train(job)) => (Status::Done, wire::encode(&run_training(&job))),
             Err(e) => {
                 say(
                     Note::Warning,

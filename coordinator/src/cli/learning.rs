@@ -1,13 +1,17 @@
-//! `lander run --method qlearning`: one Q(λ) trial, with a progress bar
-//! over episodes, written to a folder.
+//! `lander run --method qlearning`: one Q(λ) trial, in-process with a
+//! progress bar over episodes, or as one `Train` job on a worker, written
+//! to a folder.
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use lander_coordinator::config::RunConfig;
+use lander_coordinator::pool::IpcPool;
 use lander_coordinator::report::write_json;
 use lander_coordinator::trial::env;
+use lander_protocol::wire::TrainJob;
+use lander_protocol::EpisodeRecord;
 use lander_protocol::StreamKey;
-use lander_worker::learn::{train, EpisodeRecord};
+use lander_worker::learn::train;
 use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -30,7 +34,7 @@ struct LearnSummary {
     wall_s: f64,
 }
 
-pub fn learn(cfg: &RunConfig, out: &Path, json: bool) -> anyhow::Result<()> {
+pub fn learn(cfg: &RunConfig, out: &Path, json: bool, pool: Option<IpcPool>) -> anyhow::Result<()> {
     let env = env(cfg, 0);
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let log_path = out.join("episodes.jsonl");
@@ -44,27 +48,38 @@ pub fn learn(cfg: &RunConfig, out: &Path, json: bool) -> anyhow::Result<()> {
             .progress_chars("=> "),
     );
     let started = Instant::now();
+    let key = StreamKey::new(cfg.seed, cfg.trial, 0, 0);
     let mut landings = 0u32;
     let mut failure = None;
-    let key = StreamKey::new(cfg.seed, cfg.trial, 0, 0);
-    let training = train(
-        &env,
-        &cfg.guided,
-        &cfg.qlearning,
-        key,
-        &mut |e: &EpisodeRecord| {
-            landings += u32::from(e.safe);
-            bar.set_position(u64::from(e.episode));
-            bar.set_message(format!("landings {landings}"));
-            let line = serde_json::to_string(e).map(|l| l + "\n");
-            if let Err(err) = line
-                .map_err(std::io::Error::from)
-                .and_then(|l| log.write_all(l.as_bytes()))
-            {
-                failure.get_or_insert(err);
-            }
-        },
-    );
+    let mut record = |e: &EpisodeRecord| {
+        landings += u32::from(e.safe);
+        bar.set_position(u64::from(e.episode));
+        bar.set_message(format!("landings {landings}"));
+        let line = serde_json::to_string(e).map(|l| l + "\n");
+        if let Err(err) = line
+            .map_err(std::io::Error::from)
+            .and_then(|l| log.write_all(l.as_bytes()))
+        {
+            failure.get_or_insert(err);
+        }
+    };
+    let training = match pool {
+        None => train(&env, &cfg.guided, &cfg.qlearning, key, &mut record),
+        Some(mut pool) => {
+            let job = TrainJob {
+                env,
+                guide: cfg.guided,
+                learn: cfg.qlearning,
+                key,
+            };
+            let result = pool
+                .train(&[job])?
+                .pop()
+                .context("the pool returned no result for the trial")?;
+            result.episodes.iter().for_each(&mut record);
+            result.training
+        }
+    };
     bar.finish_and_clear();
     if let Some(err) = failure {
         return Err(err).with_context(|| format!("writing {}", log_path.display()));

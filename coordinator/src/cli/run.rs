@@ -102,6 +102,14 @@ impl RunArgs {
     /// The evaluator the flags ask for: in-process, spawned workers, or
     /// attached ones.
     fn evaluator(&self, cfg: &RunConfig, bar: &ProgressBar) -> anyhow::Result<Box<dyn Evaluator>> {
+        Ok(match self.pool(bar)? {
+            Some(pool) => Box::new(pool),
+            None => Box::new(InProcess::new(cfg.threads)?),
+        })
+    }
+
+    /// The worker pool the flags ask for, or `None` for in-process work.
+    fn pool(&self, bar: &ProgressBar) -> anyhow::Result<Option<IpcPool>> {
         anyhow::ensure!(
             self.workers <= MAX_WORKERS,
             "--workers must be at most {MAX_WORKERS} (got {})",
@@ -117,7 +125,7 @@ impl RunArgs {
                 self.run_id.is_none(),
                 "--run-id needs --workers or --attach"
             );
-            return Ok(Box::new(InProcess::new(cfg.threads)?));
+            return Ok(None);
         }
         anyhow::ensure!(
             !(self.attach && self.workers > 0),
@@ -133,7 +141,7 @@ impl RunArgs {
         if self.attach {
             say(&format!("run id {}", opts.run_id));
         }
-        Ok(Box::new(IpcPool::start(opts, say)?))
+        Ok(Some(IpcPool::start(opts, say)?))
     }
 }
 
@@ -181,11 +189,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         ))
     });
     if cfg.method == Approach::Qlearning {
-        anyhow::ensure!(
-            args.workers == 0 && !args.attach,
-            "--method qlearning runs in-process for now: the Train job over iceoryx2 is not built yet"
-        );
-        return super::learning::learn(&cfg, &out, args.json);
+        let pool = args.pool(&ProgressBar::hidden())?;
+        return super::learning::learn(&cfg, &out, args.json, pool);
     }
     let bar = progress_bar(cfg.ga.max_generations);
     let mut evaluator = args.evaluator(&cfg, &bar)?;

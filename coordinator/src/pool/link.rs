@@ -1,19 +1,15 @@
 //! The coordinator's end of one worker: its client, its job notifier and
 //! the chunk it is working on.
 
-use crate::evaluator::Batch;
 use iceoryx2::pending_response::PendingResponse;
 use iceoryx2::port::client::Client;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::prelude::*;
 use lander_protocol::iox::{self, IpcError, RunNames, JOB_EVENT, MAX_QUEUED, SHUTDOWN_EVENT};
 use lander_protocol::wire::{
-    ChunkResult, JobHeader, ResultHeader, Status, WireError, WireGene, WorkerAnnounce,
-    PROTOCOL_VERSION,
+    JobHeader, ResultHeader, Status, WireError, WireGene, WorkerAnnounce, PROTOCOL_VERSION,
 };
-use lander_protocol::Method;
 use std::collections::VecDeque;
-use std::ops::Range;
 use std::time::{Duration, Instant};
 
 /// Chunks queued at a worker at once, so it never waits for a round trip
@@ -25,7 +21,8 @@ type Pending = PendingResponse<ipc::Service, [WireGene], JobHeader, [u8], Result
 
 struct InFlight {
     job_id: u64,
-    chunk: usize,
+    /// The pool's index of the job.
+    job: usize,
     pending: Pending,
     sent: Instant,
     /// Whether another chunk was ahead of it at the worker.
@@ -33,10 +30,10 @@ struct InFlight {
     deadline: Instant,
 }
 
-/// One answered chunk.
+/// One answered job, its body checked but not decoded.
 pub struct Answer {
-    pub chunk: usize,
-    pub result: ChunkResult,
+    pub job: usize,
+    pub body: Vec<u8>,
     pub timing: ChunkTiming,
 }
 
@@ -106,43 +103,29 @@ impl Link {
         self.deadline().is_some_and(|d| now >= d)
     }
 
-    /// Gives up on the chunks in flight, returning them.
+    /// Gives up on the jobs in flight, returning them.
     pub fn abandon(&mut self) -> Vec<usize> {
-        self.busy.drain(..).map(|f| f.chunk).collect()
+        self.busy.drain(..).map(|f| f.job).collect()
     }
 
-    /// Sends genomes `range` of the batch as chunk `chunk`.
+    /// Sends `genes` under `header` as the pool's job `job`.
     pub fn send(
         &mut self,
-        batch: &Batch<'_>,
-        job_id: u64,
-        chunk: usize,
-        range: Range<usize>,
+        header: JobHeader,
+        genes: &[WireGene],
+        job: usize,
         deadline: Duration,
     ) -> Result<(), IpcError> {
-        let genomes = &batch.genomes[range.clone()];
-        let length = genomes.first().map_or(0, Vec::len);
-        let header = JobHeader {
-            version: PROTOCOL_VERSION,
-            method: batch.method.code(),
-            job_id,
-            key: batch.key,
-            first_index: range.start as u64,
-            genomes: genomes.len() as u32,
-            genome_length: length as u32,
-            max_duration: u32::from(batch.max_duration),
-            env: batch.env,
-            guide: batch.guide,
-        };
         let sent = (|| {
             let mut request = self
                 .client
-                .loan_slice_uninit(genomes.len() * length)
+                .loan_slice_uninit(genes.len())
                 .map_err(iox::fail("loaning a request"))?;
             *request.user_header_mut() = header;
-            let genes: Vec<WireGene> = genomes.iter().flatten().map(|&g| g.into()).collect();
-            let request = request.write_from_slice(&genes);
-            let pending = request.send().map_err(iox::fail("sending a request"))?;
+            let pending = request
+                .write_from_slice(genes)
+                .send()
+                .map_err(iox::fail("sending a request"))?;
             if pending.number_of_server_connections() == 0 {
                 return Err(IpcError {
                     what: "sending a request".into(),
@@ -159,8 +142,8 @@ impl Link {
                 let now = Instant::now();
                 let queued = !self.busy.is_empty();
                 self.busy.push_back(InFlight {
-                    job_id,
-                    chunk,
+                    job_id: header.job_id,
+                    job,
                     pending,
                     sent: now,
                     queued,
@@ -175,15 +158,11 @@ impl Link {
         }
     }
 
-    /// Collects the answers that arrived. An answer
-    /// that fails its checks breaks the link and comes back as `Err`; the
-    /// chunks still in flight are then flown elsewhere.
-    pub fn poll(
-        &mut self,
-        method: Method,
-        length: usize,
-        ranges: &[Range<usize>],
-    ) -> Result<Vec<Answer>, String> {
+    /// Collects the answers that arrived, checked against the jobs they
+    /// answer but not yet decoded. An answer that fails its checks breaks
+    /// the link and comes back as `Err`; the jobs still in flight are then
+    /// run elsewhere.
+    pub fn poll(&mut self) -> Result<Vec<Answer>, String> {
         let mut answered = Vec::new();
         let mut i = 0;
         while i < self.busy.len() {
@@ -196,16 +175,7 @@ impl Link {
                         compute: Duration::from_nanos(h.compute_ns),
                         queued: flight.queued,
                     };
-                    let genomes = ranges[flight.chunk].len();
-                    check(
-                        flight.job_id,
-                        h,
-                        response.payload(),
-                        method,
-                        genomes,
-                        length,
-                    )
-                    .map(|result| (result, timing))
+                    check(flight.job_id, h, response.payload()).map(|body| (body, timing))
                 }
                 Ok(None) if flight.pending.is_connected() => {
                     i += 1;
@@ -217,10 +187,10 @@ impl Link {
                 }
             };
             match answer {
-                Ok((result, timing)) => {
+                Ok((body, timing)) => {
                     answered.push(Answer {
-                        chunk: flight.chunk,
-                        result,
+                        job: flight.job,
+                        body,
                         timing,
                     });
                     self.busy.remove(i);
@@ -234,6 +204,11 @@ impl Link {
         Ok(answered)
     }
 
+    /// Marks the link unusable, for an answer the caller refused.
+    pub fn break_off(&mut self) {
+        self.broken = true;
+    }
+
     /// Tells the worker the run is over.
     pub fn shut_down(&self) {
         let _ = self
@@ -242,28 +217,19 @@ impl Link {
     }
 }
 
-/// Checks a response against the job it answers.
-fn check(
-    job_id: u64,
-    h: &ResultHeader,
-    body: &[u8],
-    method: Method,
-    genomes: usize,
-    length: usize,
-) -> Result<ChunkResult, String> {
+/// Checks a response against the job it answers and returns its body.
+fn check(job_id: u64, h: &ResultHeader, body: &[u8]) -> Result<Vec<u8>, String> {
     if h.version != PROTOCOL_VERSION {
         return Err(WireError::Version { got: h.version }.to_string());
     }
     if h.job_id != job_id {
         return Err(format!(
-            "answer to job {} while job {} was asked",
-            h.job_id, job_id
+            "answer to job {} while job {job_id} was asked",
+            h.job_id
         ));
     }
     match Status::from_code(h.status) {
-        Some(Status::Done) => {
-            ChunkResult::decode(body, method, genomes, length).map_err(|e| e.to_string())
-        }
+        Some(Status::Done) => Ok(body.to_vec()),
         Some(status) => Err(format!(
             "the worker refused the job ({status:?}): {}",
             String::from_utf8_lossy(body)
@@ -275,6 +241,7 @@ fn check(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lander_protocol::wire::ChunkResult;
     use lander_protocol::{Evaluation, Outcome, State};
 
     fn header(version: u32, status: Status, job_id: u64) -> ResultHeader {
@@ -314,31 +281,21 @@ mod tests {
     #[test]
     fn a_good_answer_passes() {
         let h = header(PROTOCOL_VERSION, Status::Done, 7);
-        assert!(check(7, &h, &body(), Method::Ga, 1, 50).is_ok());
+        assert_eq!(check(7, &h, &body()), Ok(body()));
     }
 
     #[test]
     fn answers_it_cannot_check_are_refused_with_the_reason() {
         let other = header(PROTOCOL_VERSION + 1, Status::Done, 7);
-        let e = check(7, &other, &body(), Method::Ga, 1, 50).unwrap_err();
+        let e = check(7, &other, &body()).unwrap_err();
         assert!(e.contains("protocol version"), "{e}");
         let wrong_job = header(PROTOCOL_VERSION, Status::Done, 8);
-        assert!(check(7, &wrong_job, &body(), Method::Ga, 1, 50)
-            .unwrap_err()
-            .contains("job 8"));
+        assert!(check(7, &wrong_job, &body()).unwrap_err().contains("job 8"));
         let refused = header(PROTOCOL_VERSION, Status::WrongVersion, 7);
-        let e = check(7, &refused, b"speaks version 9", Method::Ga, 1, 50).unwrap_err();
+        let e = check(7, &refused, b"speaks version 9").unwrap_err();
         assert!(
             e.contains("refused") && e.contains("speaks version 9"),
             "{e}"
-        );
-        let short = header(PROTOCOL_VERSION, Status::Done, 7);
-        assert!(check(7, &short, &body(), Method::Ga, 2, 50)
-            .unwrap_err()
-            .contains("2 genomes"));
-        assert!(
-            check(7, &short, &body(), Method::Guided, 1, 50).is_err(),
-            "guided answers carry actions"
         );
     }
 }

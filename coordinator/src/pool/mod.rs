@@ -17,8 +17,11 @@ use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use lander_protocol::iox::{self, RunNames};
-use lander_protocol::wire::{ChunkResult, WorkerAnnounce, PROTOCOL_VERSION};
-use lander_protocol::{Action, Evaluation};
+use lander_protocol::wire::{
+    decode_training, ChunkResult, JobHeader, TrainJob, WireGene, WorkerAnnounce, KIND_EVALUATE,
+    KIND_TRAIN, PROTOCOL_VERSION,
+};
+use lander_protocol::{Action, Evaluation, TrainResult};
 pub use link::ChunkTiming;
 use link::Link;
 use spawn::Children;
@@ -274,55 +277,77 @@ fn chunks(n: usize, parts: usize) -> Vec<Range<usize>> {
         .collect()
 }
 
-impl Evaluator for IpcPool {
-    fn evaluate(&mut self, batch: Batch<'_>) -> Result<Vec<Evaluation>, EvalError> {
-        let n = batch.genomes.len();
-        let length = batch.genomes.first().map_or(0, Vec::len);
-        if batch.genomes.iter().any(|g| g.len() != length) {
-            return Err(EvalError::Ragged);
-        }
-        let workers = self.links.len().max(self.opts.spawn).max(1);
-        let ranges = chunks(n, workers * self.opts.chunks_per_worker);
-        let mut todo: VecDeque<usize> = (0..ranges.len()).collect();
-        let mut done: Vec<Option<ChunkResult>> = vec![None; ranges.len()];
-        let mut remaining = ranges.len();
+/// One job for the pool: its header (the job id is filled in when sent)
+/// and its genes.
+pub struct Job {
+    pub header: JobHeader,
+    pub genes: Vec<WireGene>,
+}
+
+impl IpcPool {
+    /// Runs every job on the workers and returns the answers in job order.
+    /// `decode` checks and decodes the answer to job `i`; an answer it
+    /// refuses costs its worker the link, and the job runs elsewhere.
+    pub fn run_jobs<T>(
+        &mut self,
+        jobs: &[Job],
+        decode: impl Fn(usize, &[u8]) -> Result<T, String>,
+    ) -> Result<Vec<T>, EvalError> {
+        let mut todo: VecDeque<usize> = (0..jobs.len()).collect();
+        let mut done: Vec<Option<T>> = (0..jobs.len()).map(|_| None).collect();
+        let mut remaining = jobs.len();
         while remaining > 0 {
             self.accept()?;
             self.reap(&mut todo)?;
             for link in &mut self.links {
-                match link.poll(batch.method, length, &ranges) {
-                    Ok(answers) => {
-                        for a in answers {
-                            if let Some(t) = &mut self.timings {
-                                t.push(a.timing);
-                            }
-                            // A chunk flown twice keeps its first answer.
-                            if done[a.chunk].is_none() {
-                                done[a.chunk] = Some(a.result);
-                                remaining -= 1;
-                            }
+                let answers = match link.poll() {
+                    Ok(answers) => answers,
+                    Err(e) => {
+                        (self.say)(&format!(
+                            "refusing a result from worker {:016x}: {e}",
+                            link.id
+                        ));
+                        continue;
+                    }
+                };
+                for a in answers {
+                    if let Some(t) = &mut self.timings {
+                        t.push(a.timing);
+                    }
+                    // A job run twice keeps its first answer.
+                    if done[a.job].is_some() {
+                        continue;
+                    }
+                    match decode(a.job, &a.body) {
+                        Ok(value) => {
+                            done[a.job] = Some(value);
+                            remaining -= 1;
+                        }
+                        Err(e) => {
+                            (self.say)(&format!(
+                                "refusing a result from worker {:016x}: {e}",
+                                link.id
+                            ));
+                            link.break_off();
+                            todo.push_front(a.job);
                         }
                     }
-                    Err(e) => (self.say)(&format!(
-                        "refusing a result from worker {:016x}: {e}",
-                        link.id
-                    )),
                 }
             }
             self.drop_links(&mut todo, Link::is_broken, "disconnected");
             if remaining == 0 {
                 break;
             }
-            todo.retain(|&c| done[c].is_none());
+            todo.retain(|&j| done[j].is_none());
             for link in &mut self.links {
                 while link.has_room() {
-                    let Some(chunk) = todo.pop_front() else { break };
-                    let job_id = self.next_job;
+                    let Some(job) = todo.pop_front() else { break };
+                    let mut header = jobs[job].header;
+                    header.job_id = self.next_job;
                     self.next_job += 1;
-                    let range = ranges[chunk].clone();
-                    if let Err(e) = link.send(&batch, job_id, chunk, range, self.opts.deadline) {
+                    if let Err(e) = link.send(header, &jobs[job].genes, job, self.opts.deadline) {
                         (self.say)(&format!("cannot send to worker {:016x}: {e}", link.id));
-                        todo.push_front(chunk);
+                        todo.push_front(job);
                     }
                 }
             }
@@ -335,7 +360,69 @@ impl Evaluator for IpcPool {
             self.tell_waiting();
             self.sleep()?;
         }
-        Ok(assemble(batch.genomes, &ranges, done))
+        Ok(done.into_iter().flatten().collect())
+    }
+
+    /// Runs Q(λ) trials on the workers, one job each: the unit of
+    /// parallelism for a learner that is sequential within a trial.
+    pub fn train(&mut self, trials: &[TrainJob]) -> Result<Vec<TrainResult>, EvalError> {
+        let jobs: Vec<Job> = trials
+            .iter()
+            .map(|t| Job {
+                header: JobHeader {
+                    version: PROTOCOL_VERSION,
+                    kind: KIND_TRAIN,
+                    key: t.key,
+                    env: t.env,
+                    guide: t.guide,
+                    learn: t.learn,
+                    ..JobHeader::default()
+                },
+                genes: Vec::new(),
+            })
+            .collect();
+        self.run_jobs(&jobs, |i, body| {
+            decode_training(body, trials[i].learn.episodes).map_err(|e| e.to_string())
+        })
+    }
+}
+
+impl Evaluator for IpcPool {
+    fn evaluate(&mut self, batch: Batch<'_>) -> Result<Vec<Evaluation>, EvalError> {
+        let n = batch.genomes.len();
+        let length = batch.genomes.first().map_or(0, Vec::len);
+        if batch.genomes.iter().any(|g| g.len() != length) {
+            return Err(EvalError::Ragged);
+        }
+        let workers = self.links.len().max(self.opts.spawn).max(1);
+        let ranges = chunks(n, workers * self.opts.chunks_per_worker);
+        let jobs: Vec<Job> = ranges
+            .iter()
+            .map(|r| {
+                let genomes = &batch.genomes[r.clone()];
+                Job {
+                    header: JobHeader {
+                        version: PROTOCOL_VERSION,
+                        kind: KIND_EVALUATE,
+                        method: batch.method.code(),
+                        key: batch.key,
+                        first_index: r.start as u64,
+                        genomes: genomes.len() as u32,
+                        genome_length: length as u32,
+                        max_duration: u32::from(batch.max_duration),
+                        env: batch.env,
+                        guide: batch.guide,
+                        ..JobHeader::default()
+                    },
+                    genes: genomes.iter().flatten().map(|&g| g.into()).collect(),
+                }
+            })
+            .collect();
+        let method = batch.method;
+        let results = self.run_jobs(&jobs, |i, body| {
+            ChunkResult::decode(body, method, ranges[i].len(), length).map_err(|e| e.to_string())
+        })?;
+        Ok(assemble(batch.genomes, &ranges, results))
     }
 }
 
@@ -344,10 +431,10 @@ impl Evaluator for IpcPool {
 fn assemble(
     genomes: &mut [crate::ga::Genome],
     ranges: &[Range<usize>],
-    done: Vec<Option<ChunkResult>>,
+    results: Vec<ChunkResult>,
 ) -> Vec<Evaluation> {
     let mut out = Vec::with_capacity(genomes.len());
-    for (range, result) in ranges.iter().zip(done.into_iter().flatten()) {
+    for (range, result) in ranges.iter().zip(results) {
         let chunk = &mut genomes[range.clone()];
         if !result.actions.is_empty() {
             let genes = chunk.iter_mut().flat_map(|g| g.iter_mut());

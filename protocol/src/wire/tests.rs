@@ -25,6 +25,9 @@ fn a_good_job_decodes() {
         &[gene(0, 1), gene(3, 30), gene(2, 0), gene(1, 5)],
     )
     .unwrap();
+    let Job::Evaluate(job) = job else {
+        panic!("an evaluation job")
+    };
     assert_eq!(job.genes.len(), 4);
     assert_eq!(job.genes[1], Gene::new(Action::Drift, 30));
 }
@@ -120,4 +123,49 @@ fn results_round_trip_and_bad_ones_are_refused() {
         ChunkResult::decode(&action.encode(), Method::Guided, 2, 2),
         Err(WireError::Action { index: 2, .. })
     ));
+}
+
+#[test]
+fn training_jobs_carry_no_genes_and_sane_parameters() {
+    let mut h = header(0, 0);
+    h.kind = KIND_TRAIN;
+    h.learn = LearnParams::default();
+    assert!(matches!(Job::from_wire(&h, &[]), Ok(Job::Train(_))));
+    assert_eq!(
+        Job::from_wire(&h, &[gene(0, 1)]),
+        Err(WireError::GenesInTraining(1))
+    );
+    h.learn.memory_bits = 60;
+    assert_eq!(Job::from_wire(&h, &[]), Err(WireError::Learning));
+    h.kind = 7;
+    assert_eq!(Job::from_wire(&h, &[]), Err(WireError::Kind(7)));
+}
+
+#[test]
+fn training_results_are_checked() {
+    use crate::{EpisodeRecord, Training};
+    let record = |episode, safe| EpisodeRecord {
+        episode,
+        reward: 1.0,
+        ticks: 90,
+        decisions: 18,
+        safe,
+        epsilon: 0.05,
+    };
+    let good = TrainResult {
+        training: Training {
+            episodes: 2,
+            first_safe: Some(2),
+            landing_rate_last_100: 0.5,
+        },
+        episodes: vec![record(1, false), record(2, true)],
+    };
+    assert_eq!(decode_training(&encode(&good), 2), Ok(good.clone()));
+    assert!(decode_training(&encode(&good), 3).is_err());
+    let mut lying = good.clone();
+    lying.training.first_safe = Some(1);
+    assert!(decode_training(&encode(&lying), 2).is_err());
+    let mut nan = good;
+    nan.episodes[0].reward = f64::NAN;
+    assert!(decode_training(&encode(&nan), 2).is_err());
 }
