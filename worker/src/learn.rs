@@ -139,6 +139,15 @@ pub fn train(
     }
 }
 
+/// A whole training trial as a worker serves it: the records and summary.
+pub fn run_training(job: &TrainJob) -> TrainResult {
+    let mut episodes = Vec::with_capacity(job.learn.episodes as usize);
+    let training = train(&job.env, &job.guide, &job.learn, job.key, &mut |e| {
+        episodes.push(e.clone())
+    });
+    TrainResult { training, episodes }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -195,13 +204,4 @@ mod tests {
         assert!((0.0..=1.0).contains(&a.landing_rate_last_100));
         assert!(seen.iter().all(|e| e.ticks > 0 && e.reward.is_finite()));
     }
-}
-
-/// A whole training trial as a worker serves it: the records and summary.
-pub fn run_training(job: &TrainJob) -> TrainResult {
-    let mut episodes = Vec::with_capacity(job.learn.episodes as usize);
-    let training = train(&job.env, &job.guide, &job.learn, job.key, &mut |e| {
-        episodes.push(e.clone())
-    });
-    TrainResult { training, episodes }
 }
