@@ -55,6 +55,14 @@ pub fn json_out(out: &Output) -> Value {
     serde_json::from_slice(&out.stdout).expect("stdout is one JSON object")
 }
 
+/// Every line of a JSON-lines file, parsed.
+pub fn json_lines(path: &Path) -> Vec<Value> {
+    let text = std::fs::read_to_string(path).expect("the file exists");
+    text.lines()
+        .map(|l| serde_json::from_str(l).expect("each line is JSON"))
+        .collect()
+}
+
 /// A JSON summary with its wall time removed, for byte comparisons.
 pub fn without_wall_time(mut v: Value) -> Value {
     if let Some(obj) = v.as_object_mut() {

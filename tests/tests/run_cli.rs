@@ -1,6 +1,6 @@
 //! `lander run`, `fly` and `guide` as a user runs them.
 
-use lander_tests::{json_out, lander, stderr, without_wall_time};
+use lander_tests::{json_lines, json_out, lander, stderr, without_wall_time};
 use std::fs;
 
 fn run_in(dir: &std::path::Path, extra: &[&str]) -> serde_json::Value {
@@ -44,11 +44,7 @@ fn guided_seed_1_lands_and_repeats_exactly() {
     assert_eq!(log(&a), log(&b));
 
     // Every generation is a line; the last is the landing.
-    let text = String::from_utf8(log(&a)).unwrap();
-    let lines: Vec<serde_json::Value> = text
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
+    let lines = json_lines(&a.path().join("generations.jsonl"));
     assert_eq!(lines.len() as u64, first["generations"].as_u64().unwrap());
     assert_eq!(lines.last().unwrap()["best"], 9_999_999.0);
     for key in ["index", "restart", "best", "mean", "evaluated", "ticks"] {
@@ -235,11 +231,7 @@ fn qlearning_swaps_in_and_repeats_exactly() {
     assert!((0.0..=1.0).contains(&rate));
     let log = |d: &tempfile::TempDir| fs::read(d.path().join("episodes.jsonl")).unwrap();
     assert_eq!(log(&a), log(&b));
-    let text = String::from_utf8(log(&a)).unwrap();
-    let lines: Vec<serde_json::Value> = text
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
+    let lines = json_lines(&a.path().join("episodes.jsonl"));
     assert_eq!(lines.len(), 120);
     for key in ["episode", "return", "ticks", "safe", "epsilon"] {
         assert!(lines[0].get(key).is_some(), "episodes.jsonl lacks {key}");
