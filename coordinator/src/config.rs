@@ -2,6 +2,7 @@
 //! defaults, read from TOML and validated field by field.
 
 use crate::ga::GaParams;
+use lander_protocol::wire::{MAX_EPISODES, MAX_MEMORY_BITS};
 use lander_protocol::{GuideParams, LearnParams, Method, Scoring, World};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -107,6 +108,8 @@ impl RunConfig {
         let w = &self.world;
         positive("world.width", w.width)?;
         positive("world.height", w.height)?;
+        at_most("world.width", w.width, 1e6)?;
+        at_most("world.height", w.height, 1e6)?;
         finite("world.gravity", w.gravity)?;
         finite("world.thrust", w.thrust)?;
         positive("world.mass", w.mass)?;
@@ -121,13 +124,18 @@ impl RunConfig {
             2.0 * w.pad_margin < w.width,
             "must be less than half of world.width",
         )?;
-        check("world.max_ticks", w.max_ticks >= 1, "must be at least 1")?;
+        check(
+            "world.max_ticks",
+            (1..=1_000_000).contains(&w.max_ticks),
+            "must be 1 to 1,000,000",
+        )?;
 
         let s = &self.scoring;
-        finite("scoring.w1", s.w1)?;
-        finite("scoring.w2", s.w2)?;
-        finite("scoring.w3", s.w3)?;
-        finite("scoring.big_number", s.big_number)?;
+        // Bounded so that fitness and R stay finite for any flight.
+        at_most("scoring.w1", s.w1.abs(), 1e12)?;
+        at_most("scoring.w2", s.w2.abs(), 1e12)?;
+        at_most("scoring.w3", s.w3.abs(), 1e12)?;
+        at_most("scoring.big_number", s.big_number.abs(), 1e15)?;
         non_negative("scoring.safe_distance", s.safe_distance)?;
         non_negative("scoring.safe_speed", s.safe_speed)?;
         non_negative("scoring.safe_rotation", s.safe_rotation)?;
@@ -158,8 +166,8 @@ fn validate_learning(q: &LearnParams) -> Result<(), ConfigError> {
     )?;
     check(
         "qlearning.memory_bits",
-        (4..=28).contains(&q.memory_bits),
-        "must be 4 to 28",
+        (4..=MAX_MEMORY_BITS).contains(&q.memory_bits),
+        "must be 4 to 24",
     )?;
     for w in q.tile_widths {
         positive("qlearning.tile_widths", w)?;
@@ -170,7 +178,21 @@ fn validate_learning(q: &LearnParams) -> Result<(), ConfigError> {
     probability("qlearning.epsilon", q.epsilon)?;
     finite("qlearning.safe_bonus", q.safe_bonus)?;
     finite("qlearning.crash_penalty", q.crash_penalty)?;
-    check("qlearning.episodes", q.episodes >= 1, "must be at least 1")
+    check(
+        "qlearning.episodes",
+        (1..=MAX_EPISODES).contains(&q.episodes),
+        "must be 1 to 10,000,000",
+    )
+}
+
+/// Finite and no more than `max`.
+pub(crate) fn at_most(field: &'static str, v: f64, max: f64) -> Result<(), ConfigError> {
+    finite(field, v)?;
+    check(
+        field,
+        v <= max,
+        &format!("must be at most {max:e} (got {v})"),
+    )
 }
 
 pub(crate) fn check(field: &'static str, ok: bool, problem: &str) -> Result<(), ConfigError> {
@@ -263,6 +285,10 @@ mod tests {
                 "qlearning.tile_widths",
             ),
             ("[qlearning]\nepisodes = 0", "qlearning.episodes"),
+            ("[qlearning]\nmemory_bits = 28", "qlearning.memory_bits"),
+            ("[world]\nmax_ticks = 4000000000", "world.max_ticks"),
+            ("[scoring]\nw3 = 1e308", "scoring.w3"),
+            ("[ga]\npopulation = 100000000", "ga.population"),
         ] {
             let err = parse(text).unwrap_err();
             assert!(err.contains(field), "{text:?} gave {err:?}");

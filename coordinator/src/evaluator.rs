@@ -30,6 +30,12 @@ pub enum EvalError {
     Spawn { exe: String, reason: String },
     #[error("every worker died and the {respawns} respawns allowed are used up")]
     NoWorkers { respawns: usize },
+    #[error("only {got} of {wanted} workers announced themselves within {secs} s")]
+    WorkersLate {
+        wanted: usize,
+        got: usize,
+        secs: u64,
+    },
     #[error("the genomes of a generation differ in length")]
     Ragged,
 }

@@ -63,11 +63,15 @@ impl Default for GaParams {
 
 impl GaParams {
     pub fn validate(&self) -> Result<(), ConfigError> {
-        check("ga.population", self.population >= 1, "must be at least 1")?;
+        check(
+            "ga.population",
+            (1..=1_000_000).contains(&self.population),
+            "must be 1 to 1,000,000",
+        )?;
         check(
             "ga.genome_length",
-            self.genome_length >= 1,
-            "must be at least 1",
+            (1..=10_000).contains(&self.genome_length),
+            "must be 1 to 10,000",
         )?;
         check(
             "ga.max_duration",

@@ -20,6 +20,11 @@ use serde::{Deserialize, Serialize};
 /// Bumped whenever any layout here changes.
 pub const PROTOCOL_VERSION: u32 = 2;
 
+/// The largest training job a worker takes: `2^24` weights (128 MiB, and
+/// as much again for traces) and ten million episodes.
+pub const MAX_MEMORY_BITS: u32 = 24;
+pub const MAX_EPISODES: u32 = 10_000_000;
+
 /// Job kinds.
 pub const KIND_EVALUATE: u32 = 0;
 pub const KIND_TRAIN: u32 = 1;
@@ -204,9 +209,9 @@ impl TrainJob {
         // The worker allocates 2^memory_bits weights: refuse absurd sizes.
         let sane = l.decision_ticks >= 1
             && (1..=64).contains(&l.tilings)
-            && (4..=28).contains(&l.memory_bits)
+            && (4..=MAX_MEMORY_BITS).contains(&l.memory_bits)
             && l.tile_widths.iter().all(|w| w.is_finite() && *w > 0.0)
-            && l.episodes >= 1;
+            && (1..=MAX_EPISODES).contains(&l.episodes);
         if !sane {
             return Err(WireError::Learning);
         }

@@ -141,7 +141,7 @@ pub fn train(
 
 /// A whole training trial as a worker serves it: the records and summary.
 pub fn run_training(job: &TrainJob) -> TrainResult {
-    let mut episodes = Vec::with_capacity(job.learn.episodes as usize);
+    let mut episodes = Vec::new();
     let training = train(&job.env, &job.guide, &job.learn, job.key, &mut |e| {
         episodes.push(e.clone())
     });

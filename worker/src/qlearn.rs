@@ -135,13 +135,12 @@ impl QLambda {
         }
     }
 
-    /// Every action's value in the current state.
-    fn values<T: Task>(&self, task: &T, buf: &mut [usize]) -> Vec<f64> {
-        (0..T::ACTIONS as u8)
-            .map(|a| {
-                task.features(a, buf);
-                self.q(buf)
-            })
+    /// Every action's value, from `features`: each action's active
+    /// features in turn.
+    fn values(&self, features: &[usize], actions: usize) -> Vec<f64> {
+        features
+            .chunks(features.len() / actions)
+            .map(|f| self.q(f))
             .collect()
     }
 
@@ -168,17 +167,27 @@ impl QLambda {
     ) -> EpisodeStats {
         task.reset();
         self.apply(TraceRule::Cut);
-        let mut buf = vec![0usize; task.active()];
-        let qs = self.values(task, &mut buf);
-        let mut action = self.choose(&qs, rng);
+        let n = task.active();
+        // The features of every action in the current state, computed once
+        // per state: the values are read from them before and after learning.
+        let mut state = vec![0usize; T::ACTIONS * n];
+        let mut taken = vec![0usize; n];
+        let see = |task: &T, state: &mut [usize]| {
+            for (a, f) in state.chunks_mut(n).enumerate() {
+                task.features(a as u8, f);
+            }
+        };
+        see(task, &mut state);
+        let mut action = self.choose(&self.values(&state, T::ACTIONS), rng);
         let mut stats = EpisodeStats {
             reward: 0.0,
             steps: 0,
         };
         while stats.steps < max_steps {
-            task.features(action, &mut buf);
-            self.accumulate(&buf);
-            let q_sa = self.q(&buf);
+            let a = usize::from(action);
+            taken.copy_from_slice(&state[a * n..(a + 1) * n]);
+            self.accumulate(&taken);
+            let q_sa = self.q(&taken);
             let (reward, done) = task.step(action);
             stats.reward += reward;
             stats.steps += 1;
@@ -186,10 +195,14 @@ impl QLambda {
                 self.learn(reward - q_sa);
                 break;
             }
-            let qs = self.values(task, &mut buf);
-            self.learn(reward + self.params.gamma * max(&qs) - q_sa);
-            let next = self.choose(&qs, rng);
-            self.apply(trace_rule(&qs, next));
+            see(task, &mut state);
+            let before = self.values(&state, T::ACTIONS);
+            self.learn(reward + self.params.gamma * max(&before) - q_sa);
+            // Sutton & Barto's Figure 8.8 picks the next action from the
+            // values after this update.
+            let after = self.values(&state, T::ACTIONS);
+            let next = self.choose(&after, rng);
+            self.apply(trace_rule(&after, next));
             action = next;
         }
         stats

@@ -109,10 +109,10 @@ pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcEr
     };
     let on_event = |attachment: WaitSetAttachmentId<ipc::Service>| {
         if attachment.has_event_from(&job_guard) {
-            let mut shutdown = false;
-            if let Err(e) = jobs.try_wait(|ev| shutdown |= ev.id.as_value() == SHUTDOWN_EVENT) {
-                return stop(Err(iox::fail("reading job events")(e)));
-            }
+            let shutdown = match shutdown_asked(&jobs) {
+                Ok(asked) => asked,
+                Err(e) => return stop(Err(e)),
+            };
             if shutdown {
                 return stop(Ok(Some(Exit::RunFinished)));
             }
@@ -131,9 +131,7 @@ pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcEr
             if wake_service.dynamic_config().number_of_listeners() == 0 {
                 // The coordinator says the run is over before it leaves; a
                 // word still waiting here means it ended the run cleanly.
-                let mut shutdown = false;
-                let _ = jobs.try_wait(|ev| shutdown |= ev.id.as_value() == SHUTDOWN_EVENT);
-                let exit = if shutdown {
+                let exit = if shutdown_asked(&jobs).unwrap_or(false) {
                     Exit::RunFinished
                 } else {
                     Exit::CoordinatorGone
@@ -156,6 +154,16 @@ pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcEr
         WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt => Exit::Signal,
         _ => Exit::RunFinished,
     }))
+}
+
+/// Drains the job events; true if one of them says the run is over.
+fn shutdown_asked(
+    jobs: &iceoryx2::port::listener::Listener<ipc::Service>,
+) -> Result<bool, IpcError> {
+    let mut shutdown = false;
+    jobs.try_wait(|ev| shutdown |= ev.id.as_value() == SHUTDOWN_EVENT)
+        .map_err(iox::fail("reading job events"))?;
+    Ok(shutdown)
 }
 
 /// Waits until the run's coordinator exists. False on a signal.

@@ -28,10 +28,6 @@ impl TileCoder {
         self.tilings
     }
 
-    pub fn size(&self) -> usize {
-        self.size
-    }
-
     /// The grid cell of `point` in tiling `t`. Tiling `t` is shifted by
     /// `t · (2d + 1) / T` of a tile along dimension `d`: the asymmetric
     /// offsets Sutton & Barto recommend, so the tilings do not line up on

@@ -27,7 +27,7 @@ struct InFlight {
     sent: Instant,
     /// Whether another chunk was ahead of it at the worker.
     queued: bool,
-    deadline: Instant,
+    deadline: Option<Instant>,
 }
 
 /// One answered job, its body checked but not decoded.
@@ -96,7 +96,7 @@ impl Link {
     }
 
     pub fn deadline(&self) -> Option<Instant> {
-        self.busy.iter().map(|f| f.deadline).min()
+        self.busy.iter().filter_map(|f| f.deadline).min()
     }
 
     pub fn overdue(&self, now: Instant) -> bool {
@@ -114,7 +114,7 @@ impl Link {
         header: JobHeader,
         genes: &[WireGene],
         job: usize,
-        deadline: Duration,
+        deadline: Option<Duration>,
     ) -> Result<(), IpcError> {
         let sent = (|| {
             let mut request = self
@@ -147,7 +147,7 @@ impl Link {
                     pending,
                     sent: now,
                     queued,
-                    deadline: now + deadline,
+                    deadline: deadline.map(|d| now + d),
                 });
                 Ok(())
             }
@@ -160,9 +160,9 @@ impl Link {
 
     /// Collects the answers that arrived, checked against the jobs they
     /// answer but not yet decoded. An answer that fails its checks breaks
-    /// the link and comes back as `Err`; the jobs still in flight are then
-    /// run elsewhere.
-    pub fn poll(&mut self) -> Result<Vec<Answer>, String> {
+    /// the link and is reported beside the good ones; the jobs still in
+    /// flight, the refused one among them, are then run elsewhere.
+    pub fn poll(&mut self) -> (Vec<Answer>, Option<String>) {
         let mut answered = Vec::new();
         let mut i = 0;
         while i < self.busy.len() {
@@ -197,11 +197,11 @@ impl Link {
                 }
                 Err(e) => {
                     self.broken = true;
-                    return Err(e);
+                    return (answered, Some(e));
                 }
             }
         }
-        Ok(answered)
+        (answered, None)
     }
 
     /// Marks the link unusable, for an answer the caller refused.

@@ -121,10 +121,6 @@ impl IpcPool {
         Ok(pool)
     }
 
-    pub fn run_id(&self) -> &str {
-        &self.opts.run_id
-    }
-
     /// Workers connected now.
     pub fn workers(&self) -> usize {
         self.links.len()
@@ -136,8 +132,10 @@ impl IpcPool {
         let mut todo = VecDeque::new();
         while self.links.len() < n {
             if Instant::now() >= end {
-                return Err(EvalError::NoWorkers {
-                    respawns: self.opts.max_respawns,
+                return Err(EvalError::WorkersLate {
+                    wanted: n,
+                    got: self.links.len(),
+                    secs: patience.as_secs(),
                 });
             }
             self.accept()?;
@@ -225,10 +223,14 @@ impl IpcPool {
             for &chunk in chunks.iter().rev() {
                 todo.push_front(chunk);
             }
-            dropped.push((link.id, !chunks.is_empty()));
+            // A worker we stop trusting is told to leave and, if we
+            // spawned it, killed (the next reap replaces it).
+            link.shut_down();
+            dropped.push((link.id, link.pid, !chunks.is_empty()));
             false
         });
-        for (id, requeued) in dropped {
+        for (id, pid, requeued) in dropped {
+            self.children.kill(pid);
             self.dropped.insert(id);
             let then = if requeued {
                 "; its chunks go to other workers"
@@ -277,11 +279,15 @@ fn chunks(n: usize, parts: usize) -> Vec<Range<usize>> {
         .collect()
 }
 
-/// One job for the pool: its header (the job id is filled in when sent)
-/// and its genes.
+/// One job for the pool: its header (the job id is filled in when sent),
+/// its genes, and whether the pool's deadline applies to it.
 pub struct Job {
     pub header: JobHeader,
     pub genes: Vec<WireGene>,
+    /// A whole Q(λ) trial may rightly take minutes, so only evaluation
+    /// chunks have deadlines; a dead trainer is still found by its exit or
+    /// its node's death.
+    pub timed: bool,
 }
 
 impl IpcPool {
@@ -300,16 +306,13 @@ impl IpcPool {
             self.accept()?;
             self.reap(&mut todo)?;
             for link in &mut self.links {
-                let answers = match link.poll() {
-                    Ok(answers) => answers,
-                    Err(e) => {
-                        (self.say)(&format!(
-                            "refusing a result from worker {:016x}: {e}",
-                            link.id
-                        ));
-                        continue;
-                    }
-                };
+                let (answers, refused) = link.poll();
+                if let Some(e) = refused {
+                    (self.say)(&format!(
+                        "refusing a result from worker {:016x}: {e}",
+                        link.id
+                    ));
+                }
                 for a in answers {
                     if let Some(t) = &mut self.timings {
                         t.push(a.timing);
@@ -345,7 +348,8 @@ impl IpcPool {
                     let mut header = jobs[job].header;
                     header.job_id = self.next_job;
                     self.next_job += 1;
-                    if let Err(e) = link.send(header, &jobs[job].genes, job, self.opts.deadline) {
+                    let deadline = jobs[job].timed.then_some(self.opts.deadline);
+                    if let Err(e) = link.send(header, &jobs[job].genes, job, deadline) {
                         (self.say)(&format!("cannot send to worker {:016x}: {e}", link.id));
                         todo.push_front(job);
                     }
@@ -379,6 +383,7 @@ impl IpcPool {
                     ..JobHeader::default()
                 },
                 genes: Vec::new(),
+                timed: false,
             })
             .collect();
         self.run_jobs(&jobs, |i, body| {
@@ -415,6 +420,7 @@ impl Evaluator for IpcPool {
                         ..JobHeader::default()
                     },
                     genes: genomes.iter().flatten().map(|&g| g.into()).collect(),
+                    timed: true,
                 }
             })
             .collect();
