@@ -2,7 +2,9 @@
 //! defaults, read from TOML and validated field by field.
 
 use crate::ga::GaParams;
-use lander_protocol::wire::{MAX_EPISODES, MAX_MEMORY_BITS};
+use lander_protocol::check::{
+    at_most, check, finite, non_negative, positive, probability, ParamError,
+};
 use lander_protocol::{GuideParams, LearnParams, Method, Scoring, World};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -80,11 +82,8 @@ pub enum ConfigError {
     },
     #[error("config file {path}: {message}")]
     Parse { path: String, message: String },
-    #[error("invalid configuration: {field} {problem}")]
-    Invalid {
-        field: &'static str,
-        problem: String,
-    },
+    #[error("invalid configuration: {0}")]
+    Invalid(#[from] ParamError),
 }
 
 impl RunConfig {
@@ -149,87 +148,8 @@ impl RunConfig {
         finite("guided.w_t", g.w_t)?;
 
         self.ga.validate()?;
-        validate_learning(&self.qlearning)
+        Ok(self.qlearning.check()?)
     }
-}
-
-fn validate_learning(q: &LearnParams) -> Result<(), ConfigError> {
-    check(
-        "qlearning.decision_ticks",
-        q.decision_ticks >= 1,
-        "must be at least 1",
-    )?;
-    check(
-        "qlearning.tilings",
-        (1..=64).contains(&q.tilings),
-        "must be 1 to 64",
-    )?;
-    check(
-        "qlearning.memory_bits",
-        (4..=MAX_MEMORY_BITS).contains(&q.memory_bits),
-        "must be 4 to 24",
-    )?;
-    for w in q.tile_widths {
-        positive("qlearning.tile_widths", w)?;
-    }
-    positive("qlearning.step_size", q.step_size)?;
-    probability("qlearning.gamma", q.gamma)?;
-    probability("qlearning.lambda", q.lambda)?;
-    probability("qlearning.epsilon", q.epsilon)?;
-    finite("qlearning.safe_bonus", q.safe_bonus)?;
-    finite("qlearning.crash_penalty", q.crash_penalty)?;
-    check(
-        "qlearning.episodes",
-        (1..=MAX_EPISODES).contains(&q.episodes),
-        "must be 1 to 10,000,000",
-    )
-}
-
-/// Finite and no more than `max`.
-pub(crate) fn at_most(field: &'static str, v: f64, max: f64) -> Result<(), ConfigError> {
-    finite(field, v)?;
-    check(
-        field,
-        v <= max,
-        &format!("must be at most {max:e} (got {v})"),
-    )
-}
-
-pub(crate) fn check(field: &'static str, ok: bool, problem: &str) -> Result<(), ConfigError> {
-    if ok {
-        Ok(())
-    } else {
-        Err(ConfigError::Invalid {
-            field,
-            problem: problem.to_string(),
-        })
-    }
-}
-
-pub(crate) fn finite(field: &'static str, v: f64) -> Result<(), ConfigError> {
-    check(
-        field,
-        v.is_finite(),
-        &format!("must be a finite number (got {v})"),
-    )
-}
-
-pub(crate) fn positive(field: &'static str, v: f64) -> Result<(), ConfigError> {
-    finite(field, v)?;
-    check(field, v > 0.0, &format!("must be greater than 0 (got {v})"))
-}
-
-pub(crate) fn non_negative(field: &'static str, v: f64) -> Result<(), ConfigError> {
-    finite(field, v)?;
-    check(field, v >= 0.0, &format!("must not be negative (got {v})"))
-}
-
-pub(crate) fn probability(field: &'static str, v: f64) -> Result<(), ConfigError> {
-    check(
-        field,
-        (0.0..=1.0).contains(&v),
-        &format!("must be in [0, 1] (got {v})"),
-    )
 }
 
 #[cfg(test)]

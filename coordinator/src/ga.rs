@@ -5,7 +5,8 @@
 //! `(seed, trial, restart, generation)`, so a generation is rebuilt the same
 //! way wherever and however often it is run.
 
-use crate::config::{check, non_negative, probability, ConfigError};
+use crate::config::ConfigError;
+use lander_protocol::check::{check, non_negative, probability};
 use lander_protocol::{Action, Gene};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
@@ -93,7 +94,8 @@ impl GaParams {
             "ga.max_generations",
             self.max_generations >= 1,
             "must be at least 1",
-        )
+        )?;
+        Ok(())
     }
 }
 

@@ -8,6 +8,7 @@
 //! [`wire`] says how jobs and results are laid out between processes and
 //! checks what arrives; [`iox`] names and opens the iceoryx2 services.
 
+pub mod check;
 pub mod genome;
 pub mod iox;
 pub mod outcome;

@@ -2,6 +2,7 @@
 //! defaults. Each struct is plain data and deserialises from a TOML section
 //! in which every key is optional and unknown keys are errors.
 
+use crate::check::{check, finite, positive, probability, ParamError};
 use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -154,6 +155,47 @@ pub struct LearnParams {
     /// Subtracted from the last reward of a crash.
     pub crash_penalty: f64,
     pub episodes: u32,
+}
+
+/// The largest learner a worker builds: `2^24` weights (128 MiB, and as
+/// much again for traces), and the most episodes a trial may ask for.
+pub const MAX_MEMORY_BITS: u32 = 24;
+pub const MAX_EPISODES: u32 = 10_000_000;
+
+impl LearnParams {
+    /// Checks every field, naming the first out of range. The run
+    /// configuration and a worker taking a training job both rely on it.
+    pub fn check(&self) -> Result<(), ParamError> {
+        check(
+            "qlearning.decision_ticks",
+            self.decision_ticks >= 1,
+            "must be at least 1",
+        )?;
+        check(
+            "qlearning.tilings",
+            (1..=64).contains(&self.tilings),
+            "must be 1 to 64",
+        )?;
+        check(
+            "qlearning.memory_bits",
+            (4..=MAX_MEMORY_BITS).contains(&self.memory_bits),
+            "must be 4 to 24",
+        )?;
+        for w in self.tile_widths {
+            positive("qlearning.tile_widths", w)?;
+        }
+        positive("qlearning.step_size", self.step_size)?;
+        probability("qlearning.gamma", self.gamma)?;
+        probability("qlearning.lambda", self.lambda)?;
+        probability("qlearning.epsilon", self.epsilon)?;
+        finite("qlearning.safe_bonus", self.safe_bonus)?;
+        finite("qlearning.crash_penalty", self.crash_penalty)?;
+        check(
+            "qlearning.episodes",
+            (1..=MAX_EPISODES).contains(&self.episodes),
+            "must be 1 to 10,000,000",
+        )
+    }
 }
 
 impl Default for LearnParams {

@@ -20,11 +20,6 @@ use serde::{Deserialize, Serialize};
 /// Bumped whenever any layout here changes.
 pub const PROTOCOL_VERSION: u32 = 2;
 
-/// The largest training job a worker takes: `2^24` weights (128 MiB, and
-/// as much again for traces) and ten million episodes.
-pub const MAX_MEMORY_BITS: u32 = 24;
-pub const MAX_EPISODES: u32 = 10_000_000;
-
 /// Job kinds.
 pub const KIND_EVALUATE: u32 = 0;
 pub const KIND_TRAIN: u32 = 1;
@@ -151,8 +146,8 @@ pub enum WireError {
     Kind(u32),
     #[error("a training job carries no genes, but {0} arrived")]
     GenesInTraining(usize),
-    #[error("training parameters out of range")]
-    Learning,
+    #[error("training parameters out of range: {0}")]
+    Learning(crate::check::ParamError),
     #[error("training result is not a possible trial of {0} episodes")]
     ImplausibleTraining(u32),
 }
@@ -205,16 +200,9 @@ impl TrainJob {
         if !genes.is_empty() {
             return Err(WireError::GenesInTraining(genes.len()));
         }
-        let l = &h.learn;
-        // The worker allocates 2^memory_bits weights: refuse absurd sizes.
-        let sane = l.decision_ticks >= 1
-            && (1..=64).contains(&l.tilings)
-            && (4..=MAX_MEMORY_BITS).contains(&l.memory_bits)
-            && l.tile_widths.iter().all(|w| w.is_finite() && *w > 0.0)
-            && (1..=MAX_EPISODES).contains(&l.episodes);
-        if !sane {
-            return Err(WireError::Learning);
-        }
+        // The same check as the run configuration's: among other things
+        // it bounds the 2^memory_bits weights the worker allocates.
+        h.learn.check().map_err(WireError::Learning)?;
         Ok(TrainJob {
             env: h.env,
             guide: h.guide,

@@ -136,7 +136,14 @@ fn training_jobs_carry_no_genes_and_sane_parameters() {
         Err(WireError::GenesInTraining(1))
     );
     h.learn.memory_bits = 60;
-    assert_eq!(Job::from_wire(&h, &[]), Err(WireError::Learning));
+    assert!(
+        matches!(Job::from_wire(&h, &[]), Err(WireError::Learning(e)) if e.field == "qlearning.memory_bits")
+    );
+    h.learn.memory_bits = 18;
+    h.learn.gamma = f64::NAN;
+    assert!(
+        matches!(Job::from_wire(&h, &[]), Err(WireError::Learning(e)) if e.field == "qlearning.gamma")
+    );
     h.kind = 7;
     assert_eq!(Job::from_wire(&h, &[]), Err(WireError::Kind(7)));
 }

@@ -1,0 +1,57 @@
+//! Field-by-field range checks, shared by the run configuration and by
+//! workers checking the parameters a job brings.
+
+/// A parameter out of range: its name (`section.key`) and what is wrong.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{field} {problem}")]
+pub struct ParamError {
+    pub field: &'static str,
+    pub problem: String,
+}
+
+/// Finite and no more than `max`.
+pub fn at_most(field: &'static str, v: f64, max: f64) -> Result<(), ParamError> {
+    finite(field, v)?;
+    check(
+        field,
+        v <= max,
+        &format!("must be at most {max:e} (got {v})"),
+    )
+}
+
+pub fn check(field: &'static str, ok: bool, problem: &str) -> Result<(), ParamError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(ParamError {
+            field,
+            problem: problem.to_string(),
+        })
+    }
+}
+
+pub fn finite(field: &'static str, v: f64) -> Result<(), ParamError> {
+    check(
+        field,
+        v.is_finite(),
+        &format!("must be a finite number (got {v})"),
+    )
+}
+
+pub fn positive(field: &'static str, v: f64) -> Result<(), ParamError> {
+    finite(field, v)?;
+    check(field, v > 0.0, &format!("must be greater than 0 (got {v})"))
+}
+
+pub fn non_negative(field: &'static str, v: f64) -> Result<(), ParamError> {
+    finite(field, v)?;
+    check(field, v >= 0.0, &format!("must not be negative (got {v})"))
+}
+
+pub fn probability(field: &'static str, v: f64) -> Result<(), ParamError> {
+    check(
+        field,
+        (0.0..=1.0).contains(&v),
+        &format!("must be in [0, 1] (got {v})"),
+    )
+}
