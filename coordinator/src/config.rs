@@ -82,8 +82,15 @@ pub enum ConfigError {
     },
     #[error("config file {path}: {message}")]
     Parse { path: String, message: String },
+    // Not a `source`: the message already says it all, once.
     #[error("invalid configuration: {0}")]
-    Invalid(#[from] ParamError),
+    Invalid(ParamError),
+}
+
+impl From<ParamError> for ConfigError {
+    fn from(e: ParamError) -> ConfigError {
+        ConfigError::Invalid(e)
+    }
 }
 
 impl RunConfig {

@@ -142,7 +142,12 @@ fn bad_configuration_is_refused_naming_the_field() {
         dir.path().to_str().unwrap(),
     ]);
     assert!(!zero.status.success());
-    assert!(stderr(&zero).contains("ga.population"));
+    assert_eq!(
+        stderr(&zero).matches("ga.population").count(),
+        1,
+        "said once: {}",
+        stderr(&zero)
+    );
     let method = lander(&["run", "--method", "annealing"]);
     assert!(!method.status.success());
     assert!(stderr(&method).contains("annealing"));
