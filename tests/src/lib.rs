@@ -1,6 +1,7 @@
 //! Helpers for the end-to-end tests in `tests/tests/`: find the real
 //! binaries, run them, and read what they wrote.
 
+pub use lander_coordinator::pool::worker_children;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -149,29 +150,6 @@ impl Drop for Iox {
             }
         }
     }
-}
-
-/// The pids of `parent`'s children that run `name`.
-pub fn children_of(parent: u32, name: &str) -> Vec<u32> {
-    let mut out = Vec::new();
-    for entry in std::fs::read_dir("/proc").into_iter().flatten().flatten() {
-        let Ok(pid) = entry.file_name().to_string_lossy().parse::<u32>() else {
-            continue;
-        };
-        let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
-            continue;
-        };
-        // pid (comm) state ppid ...; comm may hold spaces, so split after ')'.
-        let (Some(open), Some(close)) = (stat.find('('), stat.rfind(')')) else {
-            continue;
-        };
-        let comm = &stat[open + 1..close];
-        let ppid = stat[close + 1..].split_whitespace().nth(1);
-        if comm.starts_with(&name[..name.len().min(15)]) && ppid == Some(&parent.to_string()) {
-            out.push(pid);
-        }
-    }
-    out
 }
 
 /// Sends `signal` (e.g. "KILL", "TERM", "STOP") to `pid`.

@@ -3,7 +3,7 @@
 //! hang, or come and go.
 
 use lander_tests::{
-    children_of, json_out, lines_in, signal, stderr, wait_until, without_wall_time, Iox,
+    json_out, lines_in, signal, stderr, wait_until, without_wall_time, worker_children, Iox,
 };
 use serde_json::Value;
 use std::fs;
@@ -107,7 +107,7 @@ fn a_clean_run_leaves_no_processes_and_no_files() {
     let pid = child.id();
     let mut seen = Vec::new();
     wait_until(20, || {
-        seen = children_of(pid, "lander-worker");
+        seen = worker_children(pid);
         seen.len() == 2
     });
     assert_eq!(seen.len(), 2, "two workers were spawned");
@@ -143,7 +143,7 @@ fn survives(test: &str, extra: &[&str], reported: &str, disturb: impl Fn(&[u32])
         wait_until(60, || lines_in(&log) >= 40),
         "the run did not get going"
     );
-    let workers = children_of(child.id(), "lander-worker");
+    let workers = worker_children(child.id());
     assert_eq!(workers.len(), 2);
     disturb(&workers);
     let out = child.wait_with_output().unwrap();
@@ -367,7 +367,7 @@ fn qlearning_over_workers_matches_in_process_even_when_its_worker_dies() {
     let child = start(&iox, dir.path(), &a);
     let mut workers = Vec::new();
     assert!(wait_until(20, || {
-        workers = children_of(child.id(), "lander-worker");
+        workers = worker_children(child.id());
         !workers.is_empty()
     }));
     std::thread::sleep(std::time::Duration::from_millis(150));

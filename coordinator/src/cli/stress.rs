@@ -6,7 +6,7 @@ use super::run::pool_options;
 use anyhow::Context;
 use lander_coordinator::bench::{Mode, ModeEvaluator, Workload};
 use lander_coordinator::evaluator::InProcess;
-use lander_coordinator::pool::IpcPool;
+use lander_coordinator::pool::{worker_children, IpcPool};
 use rand::Rng;
 use serde::Serialize;
 use std::process::Command;
@@ -131,7 +131,7 @@ fn kill_at_random(rate: f64, stop: &AtomicBool, kills: &AtomicU64) {
             }
             std::thread::sleep(Duration::from_millis(5));
         }
-        let workers = worker_children();
+        let workers = worker_children(std::process::id());
         if workers.is_empty() {
             continue;
         }
@@ -144,26 +144,4 @@ fn kill_at_random(rate: f64, stop: &AtomicBool, kills: &AtomicU64) {
             kills.fetch_add(1, Ordering::Relaxed);
         }
     }
-}
-
-/// This process's live `lander-worker` children, from /proc.
-fn worker_children() -> Vec<u32> {
-    let me = std::process::id().to_string();
-    let Ok(dir) = std::fs::read_dir("/proc") else {
-        return Vec::new();
-    };
-    dir.flatten()
-        .filter_map(|e| e.file_name().to_str()?.parse::<u32>().ok())
-        .filter(|pid| {
-            let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
-                return false;
-            };
-            let Some((head, tail)) = stat.rsplit_once(')') else {
-                return false;
-            };
-            let mut fields = tail.split_whitespace();
-            let state = fields.next();
-            head.ends_with("(lander-worker") && state != Some("Z") && fields.next() == Some(&me)
-        })
-        .collect()
 }

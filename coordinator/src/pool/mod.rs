@@ -24,6 +24,7 @@ use lander_protocol::wire::{
 use lander_protocol::{Action, Evaluation, TrainResult};
 pub use link::ChunkTiming;
 use link::Link;
+pub use spawn::worker_children;
 use spawn::Children;
 use std::collections::{HashSet, VecDeque};
 use std::ops::Range;

@@ -96,3 +96,28 @@ impl Children {
         }
     }
 }
+
+/// The live (not zombie) `lander-worker` processes whose parent is
+/// `parent`, read from /proc: for tools and tests that disturb workers
+/// they did not spawn through [`Children`].
+pub fn worker_children(parent: u32) -> Vec<u32> {
+    let parent = parent.to_string();
+    let Ok(dir) = std::fs::read_dir("/proc") else {
+        return Vec::new();
+    };
+    dir.flatten()
+        .filter_map(|e| e.file_name().to_str()?.parse::<u32>().ok())
+        .filter(|pid| {
+            let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+                return false;
+            };
+            // pid (comm) state ppid …; comm may hold spaces, so split at the last ')'.
+            let Some((head, tail)) = stat.rsplit_once(')') else {
+                return false;
+            };
+            let mut fields = tail.split_whitespace();
+            let state = fields.next();
+            head.ends_with("(lander-worker") && state != Some("Z") && fields.next() == Some(&parent)
+        })
+        .collect()
+}
