@@ -176,6 +176,8 @@ impl IpcPool {
                     "refusing worker {:016x} (pid {}): it speaks protocol version {}, this coordinator {}",
                     w.worker_id, w.pid, w.version, PROTOCOL_VERSION
                 ));
+                // It re-announces until served; say so once.
+                self.dropped.insert(w.worker_id);
                 continue;
             }
             match Link::open(&self.node, &self.names, w) {
@@ -206,9 +208,6 @@ impl IpcPool {
             self.last_reap = Instant::now();
         }
         let now = Instant::now();
-        for link in self.links.iter().filter(|l| l.overdue(now)) {
-            self.children.kill(link.pid);
-        }
         self.drop_links(todo, |l| l.overdue(now), "missed its deadline");
         Ok(())
     }
