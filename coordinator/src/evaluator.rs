@@ -3,7 +3,10 @@
 
 use crate::ga::Genome;
 use lander_protocol::iox::IpcError;
+use lander_protocol::wire::TrainJob;
+use lander_protocol::TrainResult;
 use lander_protocol::{Env, GuideParams, Method, StreamKey};
+use lander_worker::learn::run_training;
 use lander_worker::{evaluate, Evaluation};
 use rayon::prelude::*;
 
@@ -38,12 +41,38 @@ pub enum EvalError {
     },
     #[error("the genomes of a generation differ in length")]
     Ragged,
+    #[error("zenoh: {0}")]
+    Net(String),
 }
 
-/// Flies a batch and returns one evaluation per genome, in order.
+/// Flies batches and returns one evaluation per genome, in order.
 pub trait Evaluator {
-    fn evaluate(&mut self, batch: Batch<'_>) -> Result<Vec<Evaluation>, EvalError>;
+    fn evaluate(&mut self, batch: Batch<'_>) -> Result<Vec<Evaluation>, EvalError> {
+        let mut all = self.evaluate_many(vec![batch])?;
+        Ok(all.pop().unwrap_or_default())
+    }
+
+    /// Flies several batches at once, such as the current generations of
+    /// several trials, so that small generations still fill every core.
+    fn evaluate_many(&mut self, batches: Vec<Batch<'_>>)
+        -> Result<Vec<Vec<Evaluation>>, EvalError>;
 }
+
+/// Runs Q(λ) trials, one per job; a learner is sequential within a trial,
+/// so trials are the unit of parallelism.
+pub trait Trainer {
+    /// Returns the results in job order, showing `done` each one as it
+    /// arrives.
+    fn train(
+        &mut self,
+        jobs: &[TrainJob],
+        done: &mut dyn FnMut(usize, &TrainResult),
+    ) -> Result<Vec<TrainResult>, EvalError>;
+}
+
+/// Both kinds of work, as an experiment needs them from one set of workers.
+pub trait Backend: Evaluator + Trainer {}
+impl<T: Evaluator + Trainer> Backend for T {}
 
 /// Evaluation on this process's own threads.
 pub struct InProcess {
@@ -70,21 +99,52 @@ impl InProcess {
 }
 
 impl Evaluator for InProcess {
-    fn evaluate(&mut self, batch: Batch<'_>) -> Result<Vec<Evaluation>, EvalError> {
-        let Batch {
-            env,
-            method,
-            guide,
-            key,
-            genomes,
-            ..
-        } = batch;
+    fn evaluate_many(
+        &mut self,
+        batches: Vec<Batch<'_>>,
+    ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
         Ok(self.pool.install(|| {
-            genomes
-                .par_iter_mut()
-                .enumerate()
-                .map(|(i, g)| evaluate(&env, method, &guide, key, i as u64, g))
+            batches
+                .into_par_iter()
+                .map(|b| {
+                    let (env, method, guide, key) = (b.env, b.method, b.guide, b.key);
+                    b.genomes
+                        .par_iter_mut()
+                        .enumerate()
+                        .map(|(i, g)| evaluate(&env, method, &guide, key, i as u64, g))
+                        .collect()
+                })
                 .collect()
         }))
+    }
+}
+
+impl Trainer for InProcess {
+    fn train(
+        &mut self,
+        jobs: &[TrainJob],
+        done: &mut dyn FnMut(usize, &TrainResult),
+    ) -> Result<Vec<TrainResult>, EvalError> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        let pool = &self.pool;
+        let mut results: Vec<Option<TrainResult>> = jobs.iter().map(|_| None).collect();
+        std::thread::scope(|s| {
+            s.spawn(move || {
+                pool.install(|| {
+                    jobs.par_iter()
+                        .enumerate()
+                        .for_each_with(tx, |tx, (i, job)| {
+                            // The receiver outlives the loop; a failed send
+                            // would only mean it stopped listening.
+                            let _ = tx.send((i, run_training(job)));
+                        })
+                })
+            });
+            for (i, result) in rx {
+                done(i, &result);
+                results[i] = Some(result);
+            }
+        });
+        Ok(results.into_iter().flatten().collect())
     }
 }

@@ -7,11 +7,15 @@
 //! - [`pool`]: the evaluator pool over iceoryx2 worker processes.
 //! - [`bench`]: the throughput comparison behind `lander bench`.
 //! - [`report`]: what a run writes: JSON lines, `best.json`, the summary.
+//! - [`experiment`]: many paired trials, resumable, with tables, plots and a report.
+//! - [`replay`]: flights traced for replays.
 
 pub mod bench;
 pub mod config;
 pub mod evaluator;
+pub mod experiment;
 pub mod ga;
 pub mod pool;
+pub mod replay;
 pub mod report;
 pub mod trial;

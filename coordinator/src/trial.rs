@@ -90,85 +90,141 @@ pub fn run_trial(
     evaluator: &mut dyn Evaluator,
     observe: &mut Observer<'_>,
 ) -> Result<TrialResult, TrialError> {
-    let method = cfg
-        .method
-        .evolution()
-        .ok_or(TrialError::NotEvolution(cfg.method.name()))?;
-    let mut index = 0;
-    let mut restart = 0;
+    let mut run = TrialRun::new(cfg)?;
     loop {
-        let env = env(cfg, restart);
-        let attempt = run_attempt(cfg, method, &env, restart, &mut index, evaluator, observe)?;
-        let out_of_restarts = restart >= cfg.ga.max_restarts;
-        if attempt.landed || out_of_restarts {
-            return Ok(TrialResult {
-                x0: env.x0,
-                pad_x: env.pad_x,
-                landed: attempt.landed,
-                generations: index,
-                restarts: restart,
-                best: attempt.best,
-            });
+        let evaluations = evaluator.evaluate(run.batch())?;
+        let generation = run.accept(&evaluations);
+        observe(&generation).map_err(TrialError::Observer)?;
+        if let Some(result) = run.result() {
+            return Ok(result.clone());
         }
-        restart += 1;
     }
 }
 
-struct Attempt {
-    landed: bool,
-    best: Best,
+/// A trial as a state machine, one generation per step: [`batch`] is the
+/// generation to fly, [`accept`] takes its evaluations and moves on. This
+/// lets one evaluator fly the generations of many trials at once.
+///
+/// [`batch`]: TrialRun::batch
+/// [`accept`]: TrialRun::accept
+pub struct TrialRun {
+    cfg: RunConfig,
+    method: Method,
+    env: Env,
+    restart: u64,
+    /// The generation being flown, within its restart, from 1.
+    generation: u64,
+    /// Generations flown so far, across restarts.
+    index: u64,
+    population: Vec<Genome>,
+    /// The best individual of the current attempt.
+    best: Option<Best>,
+    result: Option<TrialResult>,
 }
 
-fn run_attempt(
-    cfg: &RunConfig,
-    method: Method,
-    env: &Env,
-    restart: u64,
-    index: &mut u64,
-    evaluator: &mut dyn Evaluator,
-    observe: &mut Observer<'_>,
-) -> Result<Attempt, TrialError> {
-    let key = |generation| StreamKey::new(cfg.seed, cfg.trial, restart, generation);
-    let mut population = random_population(&cfg.ga, &mut key(1).rng(streams::OPERATORS));
-    let mut best: Option<Best> = None;
-    for generation in 1..=cfg.ga.max_generations.max(1) {
-        let evaluations = evaluator.evaluate(Batch {
-            env: *env,
+impl TrialRun {
+    pub fn new(cfg: &RunConfig) -> Result<TrialRun, TrialError> {
+        let method = cfg
+            .method
+            .evolution()
+            .ok_or(TrialError::NotEvolution(cfg.method.name()))?;
+        let mut run = TrialRun {
+            cfg: cfg.clone(),
             method,
-            guide: cfg.guided,
-            key: key(generation),
-            max_duration: cfg.ga.max_duration,
-            genomes: &mut population,
-        })?;
-        *index += 1;
-        observe(&record(*index, restart, generation, &evaluations))
-            .map_err(TrialError::Observer)?;
+            env: env(cfg, 0),
+            restart: 0,
+            generation: 1,
+            index: 0,
+            population: Vec::new(),
+            best: None,
+            result: None,
+        };
+        run.begin_attempt(0);
+        Ok(run)
+    }
+
+    fn key(&self, generation: u64) -> StreamKey {
+        StreamKey::new(self.cfg.seed, self.cfg.trial, self.restart, generation)
+    }
+
+    fn begin_attempt(&mut self, restart: u64) {
+        self.restart = restart;
+        self.env = env(&self.cfg, restart);
+        self.generation = 1;
+        self.best = None;
+        let mut rng = self.key(1).rng(streams::OPERATORS);
+        self.population = random_population(&self.cfg.ga, &mut rng);
+    }
+
+    /// The generation to fly next.
+    pub fn batch(&mut self) -> Batch<'_> {
+        Batch {
+            env: self.env,
+            method: self.method,
+            guide: self.cfg.guided,
+            key: self.key(self.generation),
+            max_duration: self.cfg.ga.max_duration,
+            genomes: &mut self.population,
+        }
+    }
+
+    /// Takes the evaluations of [`TrialRun::batch`], one per genome in
+    /// order, and prepares the next generation, a restart, or the result.
+    pub fn accept(&mut self, evaluations: &[Evaluation]) -> Generation {
+        self.index += 1;
+        let generation = record(self.index, self.restart, self.generation, evaluations);
         let landed = evaluations.iter().position(|e| e.outcome.safe);
-        let top = landed.unwrap_or_else(|| fittest(&evaluations));
-        let improves = best
+        let top = landed.unwrap_or_else(|| fittest(evaluations));
+        let improves = self
+            .best
             .as_ref()
             .is_none_or(|b| evaluations[top].outcome.fitness > b.outcome.fitness);
         if improves || landed.is_some() {
-            best = Some(Best {
-                genome: population[top].clone(),
+            self.best = Some(Best {
+                genome: self.population[top].clone(),
                 outcome: evaluations[top].outcome,
-                index: *index,
+                index: self.index,
             });
         }
-        if landed.is_some() {
-            break;
-        }
-        if generation < cfg.ga.max_generations {
+        let last = self.generation >= self.cfg.ga.max_generations;
+        if landed.is_some() || last {
+            self.end_attempt();
+        } else {
             let fitness: Vec<f64> = evaluations.iter().map(|e| e.outcome.fitness).collect();
-            let mut rng = key(generation + 1).rng(streams::OPERATORS);
-            population = next_generation(&cfg.ga, &population, &fitness, &mut rng);
+            let mut rng = self.key(self.generation + 1).rng(streams::OPERATORS);
+            self.population = next_generation(&self.cfg.ga, &self.population, &fitness, &mut rng);
+            self.generation += 1;
+        }
+        generation
+    }
+
+    fn end_attempt(&mut self) {
+        let Some(best) = self.best.take() else {
+            return;
+        };
+        let landed = best.outcome.safe;
+        if landed || self.restart >= self.cfg.ga.max_restarts {
+            self.result = Some(TrialResult {
+                x0: self.env.x0,
+                pad_x: self.env.pad_x,
+                landed,
+                generations: self.index,
+                restarts: self.restart,
+                best,
+            });
+        } else {
+            self.begin_attempt(self.restart + 1);
         }
     }
-    let best = best.expect("the loop runs at least once and the first generation sets best");
-    Ok(Attempt {
-        landed: best.outcome.safe,
-        best,
-    })
+
+    /// The trial's result, once it has one.
+    pub fn result(&self) -> Option<&TrialResult> {
+        self.result.as_ref()
+    }
+
+    pub fn config(&self) -> &RunConfig {
+        &self.cfg
+    }
 }
 
 /// The first index of the highest fitness.

@@ -6,11 +6,14 @@
 //! and keeps no state between jobs, so any worker can take any job.
 //!
 //! [`wire`] says how jobs and results are laid out between processes and
-//! checks what arrives; [`iox`] names and opens the iceoryx2 services.
+//! checks what arrives; [`iox`] names and opens the iceoryx2 services;
+//! [`envelope`] frames messages for the network and [`net`] configures zenoh.
 
 pub mod check;
+pub mod envelope;
 pub mod genome;
 pub mod iox;
+pub mod net;
 pub mod outcome;
 pub mod params;
 pub mod stream;

@@ -46,7 +46,7 @@ impl From<Gene> for WireGene {
 /// A chunk of genomes to evaluate: genome `i` of the chunk is individual
 /// `first_index + i` of its generation and uses that guided-pass stream.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, ZeroCopySend)]
 #[type_name("lander::JobHeader")]
 pub struct JobHeader {
     pub version: u32,
@@ -83,7 +83,7 @@ impl Status {
 }
 
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, ZeroCopySend)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, ZeroCopySend)]
 #[type_name("lander::ResultHeader")]
 pub struct ResultHeader {
     pub version: u32,
@@ -117,6 +117,8 @@ pub struct ChunkResult {
 
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 pub enum WireError {
+    #[error("{0} is not a finite number")]
+    NotFinite(&'static str),
     #[error("protocol version {got}, but this side speaks version {PROTOCOL_VERSION}")]
     Version { got: u32 },
     #[error("unknown method code {0}")]
@@ -187,6 +189,7 @@ impl Job {
         if h.version != PROTOCOL_VERSION {
             return Err(WireError::Version { got: h.version });
         }
+        check_numbers(h)?;
         match h.kind {
             KIND_EVALUATE => EvalJob::from_wire(h, genes).map(Job::Evaluate),
             KIND_TRAIN => TrainJob::from_wire(h, genes).map(Job::Train),
@@ -238,6 +241,45 @@ impl EvalJob {
             guide: h.guide,
             genes,
         })
+    }
+}
+
+/// Every number of the environment and the guided pass must be finite: a
+/// NaN from another process would otherwise fly as a plausible-looking
+/// result.
+fn check_numbers(h: &JobHeader) -> Result<(), WireError> {
+    let (w, s, g) = (&h.env.world, &h.env.scoring, &h.guide);
+    let numbers = [
+        ("env.x0", h.env.x0),
+        ("env.pad_x", h.env.pad_x),
+        ("world.width", w.width),
+        ("world.height", w.height),
+        ("world.gravity", w.gravity),
+        ("world.thrust", w.thrust),
+        ("world.mass", w.mass),
+        ("world.ticks_per_second", w.ticks_per_second),
+        ("world.rotation_step", w.rotation_step),
+        ("world.start_drop", w.start_drop),
+        ("world.ground_y", w.ground_y),
+        ("world.hull_scale", w.hull_scale),
+        ("world.pad_margin", w.pad_margin),
+        ("scoring.w1", s.w1),
+        ("scoring.w2", s.w2),
+        ("scoring.w3", s.w3),
+        ("scoring.big_number", s.big_number),
+        ("scoring.safe_distance", s.safe_distance),
+        ("scoring.safe_speed", s.safe_speed),
+        ("scoring.safe_rotation", s.safe_rotation),
+        ("guided.epsilon", g.epsilon),
+        ("guided.w_y", g.w_y),
+        ("guided.h1", g.h1),
+        ("guided.r", g.r),
+        ("guided.h2", g.h2),
+        ("guided.w_t", g.w_t),
+    ];
+    match numbers.iter().find(|(_, v)| !v.is_finite()) {
+        Some(&(field, _)) => Err(WireError::NotFinite(field)),
+        None => Ok(()),
     }
 }
 

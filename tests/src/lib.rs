@@ -1,6 +1,8 @@
 //! Helpers for the end-to-end tests in `tests/tests/`: find the real
 //! binaries, run them, and read what they wrote.
 
+pub mod browser;
+
 pub use lander_coordinator::pool::worker_children;
 use serde_json::Value;
 use std::path::{Path, PathBuf};

@@ -1,22 +1,33 @@
 //! `lander-worker`: a worker process that flies landers for a coordinator.
 
-use clap::Parser;
-use lander_worker::serve::{serve, Exit, Note};
+use clap::{Parser, ValueEnum};
+use lander_protocol::net::NetOptions;
+use lander_worker::serve::{self, Exit, Note};
+use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
 #[derive(Parser, Debug)]
 #[command(
     name = "lander-worker",
     version,
-    about = "Serves lander evaluation jobs for one run over iceoryx2 shared memory",
-    long_about = "Serves lander evaluation jobs for one run over iceoryx2 shared memory.\n\n\
+    about = "Serves lander evaluation jobs for one run, over iceoryx2 shared memory or zenoh",
+    long_about = "Serves lander evaluation jobs for one run, over iceoryx2 shared memory on \
+        this host or zenoh from any host.\n\n\
         `lander run --workers N` starts its own workers; you only start this by hand to \
         attach workers to a run:\n\n\
         \x20   lander run --attach --run-id demo        # in one terminal\n\
         \x20   lander-worker --run demo                 # in others, as many as you like\n\n\
         Workers may join or leave at any time; a chunk a departed worker held is flown \
         again by another, with identical results. A worker started before its run waits \
-        for it. It exits when the run ends, its coordinator disappears, or on SIGINT/SIGTERM."
+        for it. It exits when the run ends, its coordinator disappears, or on SIGINT/SIGTERM.\n\n\
+        Across hosts, over zenoh:\n\n\
+        \x20   lander run --attach --run-id demo --transport zenoh --listen tcp/0.0.0.0:7447 \\\n\
+        \x20       --users users.txt                   # on the coordinator's host\n\
+        \x20   lander-worker --run demo --transport zenoh --connect tcp/10.0.0.5:7447 \\\n\
+        \x20       --credentials me.txt                # on each worker host\n\n\
+        See deploy/README.md for TLS and systemd."
 )]
 struct Args {
     /// The run to serve, as printed by `lander run --attach`.
@@ -28,6 +39,25 @@ struct Args {
     /// Print errors only.
     #[arg(long)]
     quiet: bool,
+    /// iceoryx2 for a coordinator on this host, zenoh for one anywhere.
+    #[arg(long, value_enum, default_value_t = Transport::Iceoryx2)]
+    transport: Transport,
+    /// zenoh: the coordinator's endpoint, such as tcp/10.0.0.5:7447.
+    #[arg(long, value_name = "ENDPOINT")]
+    connect: Vec<String>,
+    /// zenoh: a JSON5 zenoh configuration, for TLS and anything else.
+    #[arg(long, value_name = "FILE")]
+    zenoh_config: Option<PathBuf>,
+    /// zenoh: a file whose first line is `user:password`, for a coordinator
+    /// started with --users.
+    #[arg(long, value_name = "FILE")]
+    credentials: Option<PathBuf>,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum Transport {
+    Iceoryx2,
+    Zenoh,
 }
 
 fn parse_hex(s: &str) -> Result<u64, String> {
@@ -55,7 +85,30 @@ fn main() -> ExitCode {
             say(msg)
         }
     };
-    match serve(&args.run, id, &note) {
+    let served = match args.transport {
+        Transport::Iceoryx2 => serve::serve(&args.run, id, &note).map_err(|e| e.to_string()),
+        Transport::Zenoh => {
+            if args.connect.is_empty() && args.zenoh_config.is_none() {
+                say("error: --transport zenoh needs --connect ENDPOINT (or a --zenoh-config)");
+                return ExitCode::FAILURE;
+            }
+            let stop = Arc::new(AtomicBool::new(false));
+            for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
+                if let Err(e) = signal_hook::flag::register(signal, stop.clone()) {
+                    say(&format!("error: cannot handle signal {signal}: {e}"));
+                    return ExitCode::FAILURE;
+                }
+            }
+            let options = NetOptions {
+                connect: args.connect.clone(),
+                config_file: args.zenoh_config.clone(),
+                credentials: args.credentials.clone(),
+                ..NetOptions::default()
+            };
+            serve::zenoh::serve(&args.run, id, &options, &stop, &note).map_err(|e| e.to_string())
+        }
+    };
+    match served {
         Ok(exit) => {
             note(
                 Note::Info,

@@ -1,6 +1,7 @@
 //! `lander bench`: the throughput stress test, modes side by side.
 
-use super::run::{pool_options, MethodArg};
+use super::run::MethodArg;
+use super::transport::pool_options;
 use anyhow::Context;
 use clap::Args;
 use lander_coordinator::bench::{Mode, ModeEvaluator, ModeReport, Workload};

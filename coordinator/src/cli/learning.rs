@@ -5,7 +5,7 @@
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use lander_coordinator::config::RunConfig;
-use lander_coordinator::pool::IpcPool;
+use lander_coordinator::evaluator::Backend;
 use lander_coordinator::report::write_json;
 use lander_coordinator::trial::env;
 use lander_protocol::wire::TrainJob;
@@ -34,7 +34,12 @@ struct LearnSummary {
     wall_s: f64,
 }
 
-pub fn learn(cfg: &RunConfig, out: &Path, json: bool, pool: Option<IpcPool>) -> anyhow::Result<()> {
+pub fn learn(
+    cfg: &RunConfig,
+    out: &Path,
+    json: bool,
+    pool: Option<Box<dyn Backend>>,
+) -> anyhow::Result<()> {
     let env = env(cfg, 0);
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let log_path = out.join("episodes.jsonl");
@@ -73,7 +78,7 @@ pub fn learn(cfg: &RunConfig, out: &Path, json: bool, pool: Option<IpcPool>) -> 
                 key,
             };
             let result = pool
-                .train(&[job])?
+                .train(&[job], &mut |_, _| ())?
                 .pop()
                 .context("the pool returned no result for the trial")?;
             result.episodes.iter().for_each(&mut record);

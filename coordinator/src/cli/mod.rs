@@ -1,10 +1,13 @@
 //! The subcommands of `lander` and their arguments.
 
 mod bench;
+mod experiment;
 mod flight;
 mod learning;
+mod replay;
 mod run;
 mod stress;
+mod transport;
 
 use clap::{Parser, Subcommand};
 
@@ -29,6 +32,10 @@ enum Command {
     Fly(flight::FlyArgs),
     /// Apply the guided evolve pass to one genome and print the result.
     Guide(flight::GuideArgs),
+    /// Run an experiment of many paired trials and write tables, plots and a report.
+    Experiment(experiment::ExperimentArgs),
+    /// Draw a flight as an SVG or an animated HTML page.
+    Replay(replay::ReplayArgs),
     /// Compare evaluation throughput in-process and over iceoryx2, side by side.
     Bench(bench::BenchArgs),
 }
@@ -39,5 +46,7 @@ pub fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::Fly(args) => flight::fly(args),
         Command::Guide(args) => flight::guide(args),
         Command::Bench(args) => bench::bench(args),
+        Command::Experiment(args) => experiment::experiment(args),
+        Command::Replay(args) => replay::replay(args),
     }
 }

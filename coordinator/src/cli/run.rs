@@ -1,16 +1,14 @@
 //! `lander run`: one trial, with a progress bar, written to a folder.
 
+use super::transport::TransportArgs;
 use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lander_coordinator::config::{Approach, RunConfig};
-use lander_coordinator::evaluator::{Evaluator, InProcess};
-use lander_coordinator::pool::{IpcPool, PoolOptions};
 use lander_coordinator::report::{write_json, BestRecord, GenerationLog, Summary};
 use lander_coordinator::trial::{run_trial, Generation};
-use lander_protocol::iox::MAX_WORKERS;
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 #[derive(Args, Debug)]
 pub struct RunArgs {
@@ -46,20 +44,8 @@ pub struct RunArgs {
     /// Print one JSON summary object on stdout.
     #[arg(long)]
     json: bool,
-    /// Worker processes to spawn, evaluating over iceoryx2 shared memory;
-    /// 0 evaluates in this process.
-    #[arg(long, value_name = "N", default_value_t = 0)]
-    workers: usize,
-    /// Wait for workers started elsewhere with `lander-worker --run <id>`;
-    /// they may join or leave at any time.
-    #[arg(long)]
-    attach: bool,
-    /// The run id that names this run's iceoryx2 services [default: random].
-    #[arg(long, value_name = "ID")]
-    run_id: Option<String>,
-    /// Seconds a worker may take over one chunk before it goes to another.
-    #[arg(long, value_name = "SECS", default_value_t = 30.0)]
-    deadline: f64,
+    #[command(flatten)]
+    transport: TransportArgs,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -98,86 +84,6 @@ impl RunArgs {
     }
 }
 
-impl RunArgs {
-    /// The evaluator the flags ask for: in-process, spawned workers, or
-    /// attached ones.
-    fn evaluator(&self, cfg: &RunConfig, bar: &ProgressBar) -> anyhow::Result<Box<dyn Evaluator>> {
-        Ok(match self.pool(bar)? {
-            Some(pool) => Box::new(pool),
-            None => Box::new(InProcess::new(cfg.threads)?),
-        })
-    }
-
-    /// The worker pool the flags ask for, or `None` for in-process work.
-    fn pool(&self, bar: &ProgressBar) -> anyhow::Result<Option<IpcPool>> {
-        anyhow::ensure!(
-            self.workers <= MAX_WORKERS,
-            "--workers must be at most {MAX_WORKERS} (got {})",
-            self.workers
-        );
-        anyhow::ensure!(
-            self.deadline.is_finite() && self.deadline > 0.0,
-            "--deadline must be a positive number of seconds (got {})",
-            self.deadline
-        );
-        if self.workers == 0 && !self.attach {
-            anyhow::ensure!(
-                self.run_id.is_none(),
-                "--run-id needs --workers or --attach"
-            );
-            return Ok(None);
-        }
-        anyhow::ensure!(
-            !(self.attach && self.workers > 0),
-            "--attach and --workers N exclude each other: attach waits for workers started elsewhere"
-        );
-        let run_id = match &self.run_id {
-            Some(id) => check_run_id(id)?,
-            None => format!("{:08x}", rand::random::<u32>()),
-        };
-        let opts = pool_options(run_id, self.workers, Duration::from_secs_f64(self.deadline))?;
-        let bar = bar.clone();
-        let say = Box::new(move |msg: &str| bar.suspend(|| eprintln!("lander: {msg}")));
-        if self.attach {
-            say(&format!("run id {}", opts.run_id));
-        }
-        Ok(Some(IpcPool::start(opts, say)?))
-    }
-}
-
-/// A pool that spawns `workers` copies of the `lander-worker` beside this
-/// executable (0: workers attach themselves).
-pub fn pool_options(
-    run_id: String,
-    workers: usize,
-    deadline: Duration,
-) -> anyhow::Result<PoolOptions> {
-    let worker_exe = std::env::current_exe()
-        .context("finding this executable")?
-        .with_file_name("lander-worker");
-    Ok(PoolOptions {
-        run_id,
-        spawn: workers,
-        worker_exe,
-        chunks_per_worker: 4,
-        deadline,
-        max_respawns: 3 * workers.max(1),
-    })
-}
-
-fn check_run_id(id: &str) -> anyhow::Result<String> {
-    let ok = !id.is_empty()
-        && id.len() <= 64
-        && id
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
-    anyhow::ensure!(
-        ok,
-        "--run-id must be 1 to 64 letters, digits, '-' or '_' (got {id:?})"
-    );
-    Ok(id.to_string())
-}
-
 pub fn run(args: RunArgs) -> anyhow::Result<()> {
     let cfg = args.config()?;
     let out = args.out.clone().unwrap_or_else(|| {
@@ -189,11 +95,11 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         ))
     });
     if cfg.method == Approach::Qlearning {
-        let pool = args.pool(&ProgressBar::hidden())?;
+        let pool = args.transport.pool(&ProgressBar::hidden())?;
         return super::learning::learn(&cfg, &out, args.json, pool);
     }
     let bar = progress_bar(cfg.ga.max_generations);
-    let mut evaluator = args.evaluator(&cfg, &bar)?;
+    let mut evaluator = args.transport.evaluator(cfg.threads, &bar)?;
     let mut log = GenerationLog::create(&out)?;
     let started = Instant::now();
     let result = run_trial(&cfg, evaluator.as_mut(), &mut |g: &Generation| {

@@ -2,7 +2,7 @@
 //! random while small chunks fly; the results must equal an in-process
 //! evaluation of the same workload, genome by genome.
 
-use super::run::pool_options;
+use super::transport::pool_options;
 use anyhow::Context;
 use lander_coordinator::bench::{Mode, ModeEvaluator, Workload};
 use lander_coordinator::evaluator::InProcess;

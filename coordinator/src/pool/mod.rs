@@ -1,5 +1,6 @@
-//! The evaluator pool: hands chunks of a generation to worker processes over
-//! iceoryx2 and survives their failures.
+//! The evaluator pool: hands chunks of a generation to worker processes and
+//! survives their failures, over any [`Transport`]: iceoryx2 on one host
+//! ([`iceoryx`]), zenoh across hosts ([`zenoh`]).
 //!
 //! Each generation is split into chunks, several per worker, and the next
 //! chunk goes to whichever worker is idle. The pool sleeps on its `wake`
@@ -9,21 +10,16 @@
 //! by job id. Results are placed by chunk, so they are identical however the
 //! work was spread.
 
-mod link;
+pub mod iceoryx;
 mod spawn;
+pub mod zenoh;
 
-use crate::evaluator::{Batch, EvalError, Evaluator};
-use iceoryx2::port::listener::{Listener, ListenerWaitError};
-use iceoryx2::port::subscriber::Subscriber;
-use iceoryx2::prelude::*;
-use lander_protocol::iox::{self, RunNames};
+use crate::evaluator::{Batch, EvalError, Evaluator, Trainer};
 use lander_protocol::wire::{
-    decode_training, ChunkResult, JobHeader, TrainJob, WireGene, WorkerAnnounce, KIND_EVALUATE,
-    KIND_TRAIN, PROTOCOL_VERSION,
+    decode_training, ChunkResult, JobHeader, ResultHeader, Status, TrainJob, WireError, WireGene,
+    KIND_EVALUATE, KIND_TRAIN, PROTOCOL_VERSION,
 };
 use lander_protocol::{Action, Evaluation, TrainResult};
-pub use link::ChunkTiming;
-use link::Link;
 pub use spawn::worker_children;
 use spawn::Children;
 use std::collections::{HashSet, VecDeque};
@@ -33,8 +29,87 @@ use std::time::{Duration, Instant};
 
 /// How long the pool sleeps at most before looking after its workers.
 const SLICE: Duration = Duration::from_millis(25);
-/// How often dead nodes are looked for.
-const REAP_EVERY: Duration = Duration::from_millis(100);
+
+/// Chunks queued at a worker at once, so it never waits for a round trip
+/// between one chunk and the next.
+pub const DEPTH: usize = 2;
+
+/// A worker that announced itself.
+#[derive(Clone, Copy, Debug)]
+pub struct Arrival {
+    pub id: u64,
+    pub pid: u32,
+    pub version: u32,
+}
+
+/// One answered job, its body checked but not decoded.
+pub struct Answer {
+    pub job: usize,
+    pub body: Vec<u8>,
+    pub timing: ChunkTiming,
+}
+
+/// How long a chunk took, seen from both ends.
+#[derive(Clone, Copy, Debug)]
+pub struct ChunkTiming {
+    /// From sending the request to reading the answer.
+    pub round_trip: Duration,
+    /// The worker's own time on the job.
+    pub compute: Duration,
+    /// Whether the chunk waited behind another at the worker, which then
+    /// counts in its round trip.
+    pub queued: bool,
+}
+
+/// How a transport finds its workers and waits for them.
+pub trait Transport {
+    type Link: WorkerLink;
+    /// Workers that announced themselves since the last look.
+    fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError>;
+    fn connect(&mut self, arrival: &Arrival) -> Result<Self::Link, String>;
+    /// Workers the transport has seen go since the last look.
+    fn departures(&mut self) -> Vec<u64>;
+    /// Sleeps until a worker may have said something, at most `max`.
+    fn sleep(&mut self, max: Duration) -> Result<(), EvalError>;
+    /// What a spawned `lander-worker` needs on its command line to find
+    /// this transport.
+    fn worker_args(&self) -> Vec<String>;
+    /// Tidies up when the pool ends.
+    fn close(&mut self);
+}
+
+/// The coordinator's end of one worker: the chunks it is working on.
+pub trait WorkerLink {
+    fn id(&self) -> u64;
+    fn pid(&self) -> u32;
+    /// True while the worker can queue another chunk.
+    fn has_room(&self) -> bool;
+    fn is_broken(&self) -> bool;
+    fn deadline(&self) -> Option<Instant>;
+    /// Gives up on the jobs in flight, returning them.
+    fn abandon(&mut self) -> Vec<usize>;
+    /// Sends `genes` under `header` as the pool's job `job`.
+    fn send(
+        &mut self,
+        header: JobHeader,
+        genes: &[WireGene],
+        job: usize,
+        deadline: Option<Duration>,
+    ) -> Result<(), String>;
+    /// Collects the answers that arrived, checked against the jobs they
+    /// answer but not yet decoded. An answer that fails its checks breaks
+    /// the link and is reported beside the good ones; the jobs still in
+    /// flight, the refused one among them, are then run elsewhere.
+    fn poll(&mut self) -> (Vec<Answer>, Option<String>);
+    /// Marks the link unusable, for an answer the caller refused.
+    fn break_off(&mut self);
+    /// Tells the worker the run is over.
+    fn shut_down(&self);
+}
+
+fn overdue(link: &impl WorkerLink, now: Instant) -> bool {
+    link.deadline().is_some_and(|d| now >= d)
+}
 
 /// How a pool finds its workers.
 #[derive(Clone, Debug)]
@@ -56,19 +131,20 @@ pub struct PoolOptions {
 /// Messages for the user, such as "waiting for workers".
 pub type Say = Box<dyn Fn(&str) + Send>;
 
-pub struct IpcPool {
+/// The pool over iceoryx2, for workers on this host.
+pub type IpcPool = Pool<iceoryx::Iceoryx>;
+/// The pool over zenoh, for workers on any host.
+pub type ZenohPool = Pool<zenoh::Zenoh>;
+
+pub struct Pool<T: Transport> {
     opts: PoolOptions,
-    names: RunNames,
-    node: Node<ipc::Service>,
-    register: Subscriber<ipc::Service, WorkerAnnounce, ()>,
-    wake: Listener<ipc::Service>,
-    links: Vec<Link>,
+    transport: T,
+    links: Vec<T::Link>,
     /// Workers dropped once are not taken back: a worker that restarts
     /// comes back under a new id.
     dropped: HashSet<u64>,
     children: Children,
     next_job: u64,
-    last_reap: Instant,
     told_waiting: bool,
     /// Kept only when asked for, so long runs do not accumulate them.
     timings: Option<Vec<ChunkTiming>>,
@@ -76,41 +152,28 @@ pub struct IpcPool {
 }
 
 impl IpcPool {
-    /// Opens the run's services and, when asked to, spawns its workers.
+    /// Opens the run's iceoryx2 services and, when asked to, spawns its
+    /// workers.
     pub fn start(opts: PoolOptions, say: Say) -> Result<IpcPool, EvalError> {
-        iox::quiet_logs();
-        let config = iox::config()?;
-        let names = RunNames::new(&opts.run_id);
-        // Ctrl-C should stop the coordinator at once; a later run reaps what
-        // it leaves behind, as this one does now.
-        let node = iox::node(
-            &format!("lander-coordinator-{}", opts.run_id),
-            &config,
-            SignalHandlingMode::Disabled,
-        )?;
-        node.try_cleanup_dead_nodes();
-        let register = iox::register_service(&node, &names.register())?
-            .subscriber_builder()
-            .create()
-            .map_err(iox::fail("subscribing to registrations"))?;
-        let wake = iox::event_service(&node, &names.wake())?
-            .listener_builder()
-            .create()
-            .map_err(iox::fail("listening for workers"))?;
-        let mut pool = IpcPool {
-            names,
-            node,
-            register,
-            wake,
-            links: Vec::new(),
-            dropped: HashSet::new(),
+        let transport = iceoryx::Iceoryx::open(&opts.run_id)?;
+        Pool::with_transport(transport, opts, say)
+    }
+}
+
+impl<T: Transport> Pool<T> {
+    /// A pool over `transport` that spawns `opts.spawn` workers.
+    pub fn with_transport(transport: T, opts: PoolOptions, say: Say) -> Result<Pool<T>, EvalError> {
+        let mut pool = Pool {
             children: Children::new(
                 opts.worker_exe.clone(),
                 opts.run_id.clone(),
+                transport.worker_args(),
                 opts.max_respawns,
             ),
+            transport,
+            links: Vec::new(),
+            dropped: HashSet::new(),
             next_job: 0,
-            last_reap: Instant::now(),
             told_waiting: false,
             timings: None,
             say,
@@ -161,28 +224,22 @@ impl IpcPool {
 
     /// Connects to workers that announced themselves since the last look.
     fn accept(&mut self) -> Result<(), EvalError> {
-        while let Some(sample) = self
-            .register
-            .receive()
-            .map_err(iox::fail("reading registrations"))?
-        {
-            let w = *sample;
-            if self.dropped.contains(&w.worker_id) || self.links.iter().any(|l| l.id == w.worker_id)
-            {
+        for w in self.transport.arrivals()? {
+            if self.dropped.contains(&w.id) || self.links.iter().any(|l| l.id() == w.id) {
                 continue;
             }
             if w.version != PROTOCOL_VERSION {
                 (self.say)(&format!(
                     "refusing worker {:016x} (pid {}): it speaks protocol version {}, this coordinator {}",
-                    w.worker_id, w.pid, w.version, PROTOCOL_VERSION
+                    w.id, w.pid, w.version, PROTOCOL_VERSION
                 ));
                 // It re-announces until served; say so once.
-                self.dropped.insert(w.worker_id);
+                self.dropped.insert(w.id);
                 continue;
             }
-            match Link::open(&self.node, &self.names, w) {
+            match self.transport.connect(&w) {
                 Ok(link) => self.links.push(link),
-                Err(e) => (self.say)(&format!("cannot reach worker {:016x}: {e}", w.worker_id)),
+                Err(e) => (self.say)(&format!("cannot reach worker {:016x}: {e}", w.id)),
             }
         }
         Ok(())
@@ -201,19 +258,22 @@ impl IpcPool {
                     "no respawns left"
                 }
             ));
-            self.drop_links(todo, |l| l.pid == pid, "exited");
+            self.drop_links(todo, |l| l.pid() == pid, "exited");
         }
-        if self.last_reap.elapsed() >= REAP_EVERY {
-            self.node.try_cleanup_dead_nodes();
-            self.last_reap = Instant::now();
-        }
+        let gone = self.transport.departures();
+        self.drop_links(todo, |l| gone.contains(&l.id()), "left");
         let now = Instant::now();
-        self.drop_links(todo, |l| l.overdue(now), "missed its deadline");
+        self.drop_links(todo, |l| overdue(l, now), "missed its deadline");
         Ok(())
     }
 
     /// Forgets the links `gone` picks, putting their chunks back first.
-    fn drop_links(&mut self, todo: &mut VecDeque<usize>, gone: impl Fn(&Link) -> bool, why: &str) {
+    fn drop_links(
+        &mut self,
+        todo: &mut VecDeque<usize>,
+        gone: impl Fn(&T::Link) -> bool,
+        why: &str,
+    ) {
         let mut dropped = Vec::new();
         self.links.retain_mut(|link| {
             if !gone(link) {
@@ -226,7 +286,7 @@ impl IpcPool {
             // A worker we stop trusting is told to leave and, if we
             // spawned it, killed (the next reap replaces it).
             link.shut_down();
-            dropped.push((link.id, link.pid, !chunks.is_empty()));
+            dropped.push((link.id(), link.pid(), !chunks.is_empty()));
             false
         });
         for (id, pid, requeued) in dropped {
@@ -246,23 +306,23 @@ impl IpcPool {
         let until_deadline = self
             .links
             .iter()
-            .filter_map(Link::deadline)
+            .filter_map(|l| l.deadline())
             .min()
             .map(|d| d.saturating_duration_since(Instant::now()));
         let slice = until_deadline.map_or(SLICE, |d| d.min(SLICE));
-        match self.wake.timed_wait(|_| {}, slice) {
-            // A signal, such as SIGCHLD from a worker that died, only ends
-            // the sleep early; the caller looks around anyway.
-            Ok(_) | Err(ListenerWaitError::InterruptSignal) => Ok(()),
-            Err(e) => Err(iox::fail("waiting for workers")(e).into()),
-        }
+        self.transport.sleep(slice)
     }
 
     fn tell_waiting(&mut self) {
         if self.links.is_empty() && self.opts.spawn == 0 && !self.told_waiting {
             (self.say)(&format!(
-                "waiting for workers: start them with `lander-worker --run {}`",
-                self.opts.run_id
+                "waiting for workers: start them with `lander-worker --run {}{}`",
+                self.opts.run_id,
+                self.transport
+                    .worker_args()
+                    .iter()
+                    .map(|a| format!(" {a}"))
+                    .collect::<String>()
             ));
             self.told_waiting = true;
         }
@@ -290,17 +350,18 @@ pub struct Job {
     pub timed: bool,
 }
 
-impl IpcPool {
+impl<T: Transport> Pool<T> {
     /// Runs every job on the workers and returns the answers in job order.
     /// `decode` checks and decodes the answer to job `i`; an answer it
     /// refuses costs its worker the link, and the job runs elsewhere.
-    pub fn run_jobs<T>(
+    pub fn run_jobs<R>(
         &mut self,
         jobs: &[Job],
-        decode: impl Fn(usize, &[u8]) -> Result<T, String>,
-    ) -> Result<Vec<T>, EvalError> {
+        decode: impl Fn(usize, &[u8]) -> Result<R, String>,
+        mut finished: impl FnMut(usize, &R),
+    ) -> Result<Vec<R>, EvalError> {
         let mut todo: VecDeque<usize> = (0..jobs.len()).collect();
-        let mut done: Vec<Option<T>> = (0..jobs.len()).map(|_| None).collect();
+        let mut done: Vec<Option<R>> = (0..jobs.len()).map(|_| None).collect();
         let mut remaining = jobs.len();
         while remaining > 0 {
             self.accept()?;
@@ -310,7 +371,7 @@ impl IpcPool {
                 if let Some(e) = refused {
                     (self.say)(&format!(
                         "refusing a result from worker {:016x}: {e}",
-                        link.id
+                        link.id()
                     ));
                 }
                 for a in answers {
@@ -323,13 +384,14 @@ impl IpcPool {
                     }
                     match decode(a.job, &a.body) {
                         Ok(value) => {
+                            finished(a.job, &value);
                             done[a.job] = Some(value);
                             remaining -= 1;
                         }
                         Err(e) => {
                             (self.say)(&format!(
                                 "refusing a result from worker {:016x}: {e}",
-                                link.id
+                                link.id()
                             ));
                             link.break_off();
                             todo.push_front(a.job);
@@ -337,7 +399,7 @@ impl IpcPool {
                     }
                 }
             }
-            self.drop_links(&mut todo, Link::is_broken, "disconnected");
+            self.drop_links(&mut todo, |l| l.is_broken(), "disconnected");
             if remaining == 0 {
                 break;
             }
@@ -350,12 +412,12 @@ impl IpcPool {
                     self.next_job += 1;
                     let deadline = jobs[job].timed.then_some(self.opts.deadline);
                     if let Err(e) = link.send(header, &jobs[job].genes, job, deadline) {
-                        (self.say)(&format!("cannot send to worker {:016x}: {e}", link.id));
+                        (self.say)(&format!("cannot send to worker {:016x}: {e}", link.id()));
                         todo.push_front(job);
                     }
                 }
             }
-            self.drop_links(&mut todo, Link::is_broken, "disconnected");
+            self.drop_links(&mut todo, |l| l.is_broken(), "disconnected");
             if self.links.is_empty() && self.children.is_empty() && self.opts.spawn > 0 {
                 return Err(EvalError::NoWorkers {
                     respawns: self.opts.max_respawns,
@@ -366,10 +428,16 @@ impl IpcPool {
         }
         Ok(done.into_iter().flatten().collect())
     }
+}
 
-    /// Runs Q(λ) trials on the workers, one job each: the unit of
-    /// parallelism for a learner that is sequential within a trial.
-    pub fn train(&mut self, trials: &[TrainJob]) -> Result<Vec<TrainResult>, EvalError> {
+impl<T: Transport> Trainer for Pool<T> {
+    /// One job per trial, with no deadline: a dead trainer is still found
+    /// by its exit or its node's death.
+    fn train(
+        &mut self,
+        trials: &[TrainJob],
+        done: &mut dyn FnMut(usize, &TrainResult),
+    ) -> Result<Vec<TrainResult>, EvalError> {
         let jobs: Vec<Job> = trials
             .iter()
             .map(|t| Job {
@@ -386,49 +454,76 @@ impl IpcPool {
                 timed: false,
             })
             .collect();
-        self.run_jobs(&jobs, |i, body| {
-            decode_training(body, trials[i].learn.episodes).map_err(|e| e.to_string())
-        })
+        self.run_jobs(
+            &jobs,
+            |i, body| decode_training(body, trials[i].learn.episodes).map_err(|e| e.to_string()),
+            done,
+        )
     }
 }
 
-impl Evaluator for IpcPool {
-    fn evaluate(&mut self, batch: Batch<'_>) -> Result<Vec<Evaluation>, EvalError> {
-        let n = batch.genomes.len();
-        let length = batch.genomes.first().map_or(0, Vec::len);
-        if batch.genomes.iter().any(|g| g.len() != length) {
-            return Err(EvalError::Ragged);
-        }
+impl<T: Transport> Evaluator for Pool<T> {
+    fn evaluate_many(
+        &mut self,
+        batches: Vec<Batch<'_>>,
+    ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
         let workers = self.links.len().max(self.opts.spawn).max(1);
-        let ranges = chunks(n, workers * self.opts.chunks_per_worker);
-        let jobs: Vec<Job> = ranges
-            .iter()
-            .map(|r| {
-                let genomes = &batch.genomes[r.clone()];
-                Job {
-                    header: JobHeader {
-                        version: PROTOCOL_VERSION,
-                        kind: KIND_EVALUATE,
-                        method: batch.method.code(),
-                        key: batch.key,
-                        first_index: r.start as u64,
-                        genomes: genomes.len() as u32,
-                        genome_length: length as u32,
-                        max_duration: u32::from(batch.max_duration),
-                        env: batch.env,
-                        guide: batch.guide,
-                        ..JobHeader::default()
-                    },
-                    genes: genomes.iter().flatten().map(|&g| g.into()).collect(),
-                    timed: true,
-                }
-            })
-            .collect();
-        let method = batch.method;
-        let results = self.run_jobs(&jobs, |i, body| {
-            ChunkResult::decode(body, method, ranges[i].len(), length).map_err(|e| e.to_string())
-        })?;
-        Ok(assemble(batch.genomes, &ranges, results))
+        // About `chunks_per_worker` chunks per worker in all, however many
+        // batches share them.
+        let per_batch = (workers * self.opts.chunks_per_worker).div_ceil(batches.len().max(1));
+        let mut jobs = Vec::new();
+        // For each job: its batch, the genomes it covers, their length.
+        let mut spans = Vec::new();
+        for (b, batch) in batches.iter().enumerate() {
+            let length = batch.genomes.first().map_or(0, Vec::len);
+            if batch.genomes.iter().any(|g| g.len() != length) {
+                return Err(EvalError::Ragged);
+            }
+            for range in chunks(batch.genomes.len(), per_batch) {
+                jobs.push(chunk_job(batch, range.clone(), length));
+                spans.push((b, range, length, batch.method));
+            }
+        }
+        let results = self.run_jobs(
+            &jobs,
+            |i, body| {
+                let (_, range, length, method) = &spans[i];
+                ChunkResult::decode(body, *method, range.len(), *length).map_err(|e| e.to_string())
+            },
+            |_, _| (),
+        )?;
+        let mut per_batch: Vec<Vec<(Range<usize>, ChunkResult)>> =
+            batches.iter().map(|_| Vec::new()).collect();
+        for ((b, range, _, _), result) in spans.into_iter().zip(results) {
+            per_batch[b].push((range, result));
+        }
+        Ok(batches
+            .into_iter()
+            .zip(per_batch)
+            .map(|(batch, results)| assemble(batch.genomes, results))
+            .collect())
+    }
+}
+
+/// The job that flies `range` of a batch's genomes.
+fn chunk_job(batch: &Batch<'_>, range: Range<usize>, length: usize) -> Job {
+    let genomes = &batch.genomes[range.clone()];
+    Job {
+        header: JobHeader {
+            version: PROTOCOL_VERSION,
+            kind: KIND_EVALUATE,
+            method: batch.method.code(),
+            key: batch.key,
+            first_index: range.start as u64,
+            genomes: genomes.len() as u32,
+            genome_length: length as u32,
+            max_duration: u32::from(batch.max_duration),
+            env: batch.env,
+            guide: batch.guide,
+            ..JobHeader::default()
+        },
+        genes: genomes.iter().flatten().map(|&g| g.into()).collect(),
+        timed: true,
     }
 }
 
@@ -436,11 +531,10 @@ impl Evaluator for IpcPool {
 /// actions back into the genomes.
 fn assemble(
     genomes: &mut [crate::ga::Genome],
-    ranges: &[Range<usize>],
-    results: Vec<ChunkResult>,
+    results: Vec<(Range<usize>, ChunkResult)>,
 ) -> Vec<Evaluation> {
     let mut out = Vec::with_capacity(genomes.len());
-    for (range, result) in ranges.iter().zip(results) {
+    for (range, result) in results {
         let chunk = &mut genomes[range.clone()];
         if !result.actions.is_empty() {
             let genes = chunk.iter_mut().flat_map(|g| g.iter_mut());
@@ -454,13 +548,34 @@ fn assemble(
     out
 }
 
-impl Drop for IpcPool {
+impl<T: Transport> Drop for Pool<T> {
     fn drop(&mut self) {
         for link in &self.links {
             link.shut_down();
         }
         self.children.stop_all();
-        self.node.try_cleanup_dead_nodes();
+        self.transport.close();
+    }
+}
+
+/// Checks a response against the job it answers and returns its body.
+fn check(job_id: u64, h: &ResultHeader, body: &[u8]) -> Result<Vec<u8>, String> {
+    if h.version != PROTOCOL_VERSION {
+        return Err(WireError::Version { got: h.version }.to_string());
+    }
+    if h.job_id != job_id {
+        return Err(format!(
+            "answer to job {} while job {job_id} was asked",
+            h.job_id
+        ));
+    }
+    match Status::from_code(h.status) {
+        Some(Status::Done) => Ok(body.to_vec()),
+        Some(status) => Err(format!(
+            "the worker refused the job ({status:?}): {}",
+            String::from_utf8_lossy(body)
+        )),
+        None => Err(format!("unknown status {}", h.status)),
     }
 }
 
@@ -475,6 +590,67 @@ mod tests {
             let flat: Vec<usize> = c.iter().flat_map(|r| r.clone()).collect();
             assert_eq!(flat, (0..n).collect::<Vec<_>>(), "n={n} parts={parts}");
             assert!(c.len() <= parts.max(1));
+        }
+    }
+
+    mod answers {
+        use super::super::*;
+        use lander_protocol::wire::ChunkResult;
+        use lander_protocol::{Evaluation, Outcome, State};
+
+        fn header(version: u32, status: Status, job_id: u64) -> ResultHeader {
+            ResultHeader {
+                version,
+                status: status as u32,
+                job_id,
+                ..ResultHeader::default()
+            }
+        }
+
+        fn body() -> Vec<u8> {
+            let e = Evaluation {
+                outcome: Outcome {
+                    state: State {
+                        x: 1.0,
+                        y: 60.0,
+                        vx: 0.0,
+                        vy: -0.1,
+                        rot: 0.0,
+                    },
+                    ticks: 10,
+                    n: 10,
+                    touched_down: true,
+                    safe: false,
+                    fitness: 700.0,
+                },
+                simulated_ticks: 10,
+            };
+            ChunkResult {
+                evaluations: vec![e],
+                actions: Vec::new(),
+            }
+            .encode()
+        }
+
+        #[test]
+        fn a_good_answer_passes() {
+            let h = header(PROTOCOL_VERSION, Status::Done, 7);
+            assert_eq!(check(7, &h, &body()), Ok(body()));
+        }
+
+        #[test]
+        fn answers_it_cannot_check_are_refused_with_the_reason() {
+            let other = header(PROTOCOL_VERSION + 1, Status::Done, 7);
+            let e = check(7, &other, &body()).unwrap_err();
+            assert!(e.contains("protocol version"), "{e}");
+            let wrong_job = header(PROTOCOL_VERSION, Status::Done, 8);
+            assert!(check(7, &wrong_job, &body()).unwrap_err().contains("job 8"));
+            let refused = header(PROTOCOL_VERSION, Status::WrongVersion, 7);
+            let e = check(7, &refused, b"speaks version 9").unwrap_err();
+            assert!(
+                e.contains("refused") && e.contains("speaks version 9"),
+                "{e}"
+            );
         }
     }
 }

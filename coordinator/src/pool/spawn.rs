@@ -10,16 +10,19 @@ use std::time::{Duration, Instant};
 pub struct Children {
     exe: PathBuf,
     run_id: String,
+    /// What the transport needs on the worker's command line.
+    args: Vec<String>,
     procs: Vec<Child>,
     next_id: u64,
     respawns_left: usize,
 }
 
 impl Children {
-    pub fn new(exe: PathBuf, run_id: String, max_respawns: usize) -> Children {
+    pub fn new(exe: PathBuf, run_id: String, args: Vec<String>, max_respawns: usize) -> Children {
         Children {
             exe,
             run_id,
+            args,
             procs: Vec::new(),
             next_id: 1,
             respawns_left: max_respawns,
@@ -40,6 +43,7 @@ impl Children {
                 &format!("{:x}", self.next_id),
                 "--quiet",
             ])
+            .args(&self.args)
             .stdin(Stdio::null())
             .spawn()
             .map_err(|e| EvalError::Spawn {

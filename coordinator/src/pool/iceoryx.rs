@@ -1,20 +1,121 @@
-//! The coordinator's end of one worker: its client, its job notifier and
-//! the chunk it is working on.
+//! The iceoryx2 transport: workers on this host announce themselves on the
+//! run's registration service, and each has its own request-response and
+//! event services, since iceoryx2 delivers a request to every server.
 
+use super::{check, Answer, Arrival, ChunkTiming, Transport, WorkerLink, DEPTH};
+use crate::evaluator::EvalError;
 use iceoryx2::pending_response::PendingResponse;
 use iceoryx2::port::client::Client;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use lander_protocol::iox::{self, IpcError, RunNames, JOB_EVENT, MAX_QUEUED, SHUTDOWN_EVENT};
-use lander_protocol::wire::{
-    JobHeader, ResultHeader, Status, WireError, WireGene, WorkerAnnounce, PROTOCOL_VERSION,
-};
+use lander_protocol::wire::{JobHeader, ResultHeader, WireGene, WorkerAnnounce};
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
-/// Chunks queued at a worker at once, so it never waits for a round trip
-/// between one chunk and the next.
-pub const DEPTH: usize = 2;
+/// How often dead nodes are looked for.
+const REAP_EVERY: Duration = Duration::from_millis(100);
+
+/// The coordinator's iceoryx2 node and the run's shared services.
+pub struct Iceoryx {
+    names: RunNames,
+    node: Node<ipc::Service>,
+    register: Subscriber<ipc::Service, WorkerAnnounce, ()>,
+    wake: Listener<ipc::Service>,
+    last_reap: Instant,
+}
+
+impl Iceoryx {
+    /// Opens the run's registration and wake-up services, after cleaning
+    /// up what dead nodes left behind.
+    pub fn open(run_id: &str) -> Result<Iceoryx, EvalError> {
+        iox::quiet_logs();
+        let config = iox::config()?;
+        let names = RunNames::new(run_id);
+        // Ctrl-C should stop the coordinator at once; a later run reaps what
+        // it leaves behind, as this one does now.
+        let node = iox::node(
+            &format!("lander-coordinator-{run_id}"),
+            &config,
+            SignalHandlingMode::Disabled,
+        )?;
+        node.try_cleanup_dead_nodes();
+        let register = iox::register_service(&node, &names.register())?
+            .subscriber_builder()
+            .create()
+            .map_err(iox::fail("subscribing to registrations"))?;
+        let wake = iox::event_service(&node, &names.wake())?
+            .listener_builder()
+            .create()
+            .map_err(iox::fail("listening for workers"))?;
+        Ok(Iceoryx {
+            names,
+            node,
+            register,
+            wake,
+            last_reap: Instant::now(),
+        })
+    }
+}
+
+impl Transport for Iceoryx {
+    type Link = Link;
+
+    fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError> {
+        let mut arrived = Vec::new();
+        while let Some(sample) = self
+            .register
+            .receive()
+            .map_err(iox::fail("reading registrations"))?
+        {
+            let w = *sample;
+            arrived.push(Arrival {
+                id: w.worker_id,
+                pid: w.pid,
+                version: w.version,
+            });
+        }
+        Ok(arrived)
+    }
+
+    fn connect(&mut self, a: &Arrival) -> Result<Link, String> {
+        let announce = WorkerAnnounce {
+            version: a.version,
+            pid: a.pid,
+            worker_id: a.id,
+        };
+        Link::open(&self.node, &self.names, announce).map_err(|e| e.to_string())
+    }
+
+    fn departures(&mut self) -> Vec<u64> {
+        // A dead node's server disconnects, which its link sees; cleaning
+        // up lets a later run start clean.
+        if self.last_reap.elapsed() >= REAP_EVERY {
+            self.node.try_cleanup_dead_nodes();
+            self.last_reap = Instant::now();
+        }
+        Vec::new()
+    }
+
+    fn sleep(&mut self, max: Duration) -> Result<(), EvalError> {
+        match self.wake.timed_wait(|_| {}, max) {
+            // A signal, such as SIGCHLD from a worker that died, only ends
+            // the sleep early; the caller looks around anyway.
+            Ok(_) | Err(ListenerWaitError::InterruptSignal) => Ok(()),
+            Err(e) => Err(iox::fail("waiting for workers")(e).into()),
+        }
+    }
+
+    fn worker_args(&self) -> Vec<String> {
+        Vec::new()
+    }
+
+    fn close(&mut self) {
+        self.node.try_cleanup_dead_nodes();
+    }
+}
 
 type EvalClient = Client<ipc::Service, [WireGene], JobHeader, [u8], ResultHeader>;
 type Pending = PendingResponse<ipc::Service, [WireGene], JobHeader, [u8], ResultHeader>;
@@ -30,25 +131,6 @@ struct InFlight {
     deadline: Option<Instant>,
 }
 
-/// One answered job, its body checked but not decoded.
-pub struct Answer {
-    pub job: usize,
-    pub body: Vec<u8>,
-    pub timing: ChunkTiming,
-}
-
-/// How long a chunk took, seen from both ends.
-#[derive(Clone, Copy, Debug)]
-pub struct ChunkTiming {
-    /// From sending the request to reading the answer.
-    pub round_trip: Duration,
-    /// The worker's own time on the job.
-    pub compute: Duration,
-    /// Whether the chunk waited behind another at the worker, which then
-    /// counts in its round trip.
-    pub queued: bool,
-}
-
 pub struct Link {
     pub id: u64,
     pub pid: u32,
@@ -61,7 +143,7 @@ pub struct Link {
 
 impl Link {
     /// Connects to an announced worker's services.
-    pub fn open(
+    fn open(
         node: &Node<ipc::Service>,
         names: &RunNames,
         w: WorkerAnnounce,
@@ -85,37 +167,43 @@ impl Link {
             broken: false,
         })
     }
+}
+
+impl WorkerLink for Link {
+    fn id(&self) -> u64 {
+        self.id
+    }
+
+    fn pid(&self) -> u32 {
+        self.pid
+    }
 
     /// True while the worker can queue another chunk.
-    pub fn has_room(&self) -> bool {
+    fn has_room(&self) -> bool {
         self.busy.len() < DEPTH.min(MAX_QUEUED) && !self.broken
     }
 
-    pub fn is_broken(&self) -> bool {
+    fn is_broken(&self) -> bool {
         self.broken
     }
 
-    pub fn deadline(&self) -> Option<Instant> {
+    fn deadline(&self) -> Option<Instant> {
         self.busy.iter().filter_map(|f| f.deadline).min()
     }
 
-    pub fn overdue(&self, now: Instant) -> bool {
-        self.deadline().is_some_and(|d| now >= d)
-    }
-
     /// Gives up on the jobs in flight, returning them.
-    pub fn abandon(&mut self) -> Vec<usize> {
+    fn abandon(&mut self) -> Vec<usize> {
         self.busy.drain(..).map(|f| f.job).collect()
     }
 
     /// Sends `genes` under `header` as the pool's job `job`.
-    pub fn send(
+    fn send(
         &mut self,
         header: JobHeader,
         genes: &[WireGene],
         job: usize,
         deadline: Option<Duration>,
-    ) -> Result<(), IpcError> {
+    ) -> Result<(), String> {
         let sent = (|| {
             let mut request = self
                 .client
@@ -153,7 +241,7 @@ impl Link {
             }
             Err(e) => {
                 self.broken = true;
-                Err(e)
+                Err(e.to_string())
             }
         }
     }
@@ -162,7 +250,7 @@ impl Link {
     /// answer but not yet decoded. An answer that fails its checks breaks
     /// the link and is reported beside the good ones; the jobs still in
     /// flight, the refused one among them, are then run elsewhere.
-    pub fn poll(&mut self) -> (Vec<Answer>, Option<String>) {
+    fn poll(&mut self) -> (Vec<Answer>, Option<String>) {
         let mut answered = Vec::new();
         let mut i = 0;
         while i < self.busy.len() {
@@ -205,97 +293,14 @@ impl Link {
     }
 
     /// Marks the link unusable, for an answer the caller refused.
-    pub fn break_off(&mut self) {
+    fn break_off(&mut self) {
         self.broken = true;
     }
 
     /// Tells the worker the run is over.
-    pub fn shut_down(&self) {
+    fn shut_down(&self) {
         let _ = self
             .jobs
             .notify_with_custom_event_id(EventId::new(SHUTDOWN_EVENT));
-    }
-}
-
-/// Checks a response against the job it answers and returns its body.
-fn check(job_id: u64, h: &ResultHeader, body: &[u8]) -> Result<Vec<u8>, String> {
-    if h.version != PROTOCOL_VERSION {
-        return Err(WireError::Version { got: h.version }.to_string());
-    }
-    if h.job_id != job_id {
-        return Err(format!(
-            "answer to job {} while job {job_id} was asked",
-            h.job_id
-        ));
-    }
-    match Status::from_code(h.status) {
-        Some(Status::Done) => Ok(body.to_vec()),
-        Some(status) => Err(format!(
-            "the worker refused the job ({status:?}): {}",
-            String::from_utf8_lossy(body)
-        )),
-        None => Err(format!("unknown status {}", h.status)),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use lander_protocol::wire::ChunkResult;
-    use lander_protocol::{Evaluation, Outcome, State};
-
-    fn header(version: u32, status: Status, job_id: u64) -> ResultHeader {
-        ResultHeader {
-            version,
-            status: status as u32,
-            job_id,
-            ..ResultHeader::default()
-        }
-    }
-
-    fn body() -> Vec<u8> {
-        let e = Evaluation {
-            outcome: Outcome {
-                state: State {
-                    x: 1.0,
-                    y: 60.0,
-                    vx: 0.0,
-                    vy: -0.1,
-                    rot: 0.0,
-                },
-                ticks: 10,
-                n: 10,
-                touched_down: true,
-                safe: false,
-                fitness: 700.0,
-            },
-            simulated_ticks: 10,
-        };
-        ChunkResult {
-            evaluations: vec![e],
-            actions: Vec::new(),
-        }
-        .encode()
-    }
-
-    #[test]
-    fn a_good_answer_passes() {
-        let h = header(PROTOCOL_VERSION, Status::Done, 7);
-        assert_eq!(check(7, &h, &body()), Ok(body()));
-    }
-
-    #[test]
-    fn answers_it_cannot_check_are_refused_with_the_reason() {
-        let other = header(PROTOCOL_VERSION + 1, Status::Done, 7);
-        let e = check(7, &other, &body()).unwrap_err();
-        assert!(e.contains("protocol version"), "{e}");
-        let wrong_job = header(PROTOCOL_VERSION, Status::Done, 8);
-        assert!(check(7, &wrong_job, &body()).unwrap_err().contains("job 8"));
-        let refused = header(PROTOCOL_VERSION, Status::WrongVersion, 7);
-        let e = check(7, &refused, b"speaks version 9").unwrap_err();
-        assert!(
-            e.contains("refused") && e.contains("speaks version 9"),
-            "{e}"
-        );
     }
 }

@@ -1,41 +1,18 @@
-//! The worker process's loop: announce itself to a run, then serve jobs
-//! from its own iceoryx2 services until the run ends or a signal arrives.
-//! It sleeps in a WaitSet between jobs and never spins.
+//! Serving over iceoryx2: announce itself to a run, then serve jobs from
+//! its own services until the run ends or a signal arrives. It sleeps in a
+//! WaitSet between jobs and never spins.
 
-use crate::evaluate::run_job;
-use crate::learn::run_training;
+use super::{answer, Exit, Note};
 use iceoryx2::prelude::*;
 use iceoryx2::waitset::WaitSetRunResult;
 use lander_protocol::iox::{self, IpcError, RunNames, SHUTDOWN_EVENT};
-use lander_protocol::wire::{
-    self, Job, ResultHeader, Status, WireError, WorkerAnnounce, PROTOCOL_VERSION,
-};
+use lander_protocol::wire::{ResultHeader, WorkerAnnounce, PROTOCOL_VERSION};
 use std::cell::{Cell, RefCell};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// How often an idle worker looks around: re-announces itself until it has
 /// work, reaps dead nodes, and checks its coordinator is still there.
 const HOUSEKEEPING: Duration = Duration::from_millis(500);
-
-/// Why a worker stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Exit {
-    /// The coordinator said the run is over.
-    RunFinished,
-    /// The coordinator's node is gone.
-    CoordinatorGone,
-    /// SIGINT or SIGTERM.
-    Signal,
-}
-
-/// What a worker tells its user.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Note {
-    /// Progress: waiting, serving.
-    Info,
-    /// Something refused; always worth showing.
-    Warning,
-}
 
 /// Serves run `run` as worker `id`, telling the user through `say`.
 pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcError> {
@@ -212,33 +189,11 @@ fn serve_waiting(
 ) -> Result<usize, IpcError> {
     let mut count = 0;
     while let Some(request) = server.receive().map_err(iox::fail("receiving a job"))? {
-        let header = *request.user_header();
-        let started = Instant::now();
-        let (status, body) = match Job::from_wire(&header, request.payload()) {
-            Ok(Job::Evaluate(job)) => (Status::Done, run_job(job).encode()),
-            Ok(Job::Train(job)) => (Status::Done, wire::encode(&run_training(&job))),
-            Err(e) => {
-                say(
-                    Note::Warning,
-                    &format!("refusing job {}: {e}", header.job_id),
-                );
-                let status = match e {
-                    WireError::Version { .. } => Status::WrongVersion,
-                    _ => Status::BadJob,
-                };
-                (status, e.to_string().into_bytes())
-            }
-        };
+        let (result, body) = answer(request.user_header(), request.payload(), id, say);
         let mut response = request
             .loan_slice_uninit(body.len())
             .map_err(iox::fail("loaning a response"))?;
-        *response.user_header_mut() = ResultHeader {
-            version: PROTOCOL_VERSION,
-            status: status as u32,
-            job_id: header.job_id,
-            worker_id: id,
-            compute_ns: started.elapsed().as_nanos() as u64,
-        };
+        *response.user_header_mut() = result;
         response
             .write_from_slice(&body)
             .send()

@@ -1,0 +1,171 @@
+//! `lander experiment FILE.toml`: the paper's experiment or any other, on
+//! all cores or on workers, with a progress bar per running trial, written
+//! trial by trial so that `--resume` can finish an interrupted run.
+
+use super::transport::TransportArgs;
+use anyhow::Context;
+use clap::Args;
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+use lander_coordinator::config::{Approach, RunConfig};
+use lander_coordinator::experiment::outputs::{ordered, write_outputs};
+use lander_coordinator::experiment::{
+    run, tasks, Experiment, ExperimentError, Progress, Store, Task,
+};
+use lander_coordinator::trial::Generation;
+use lander_report::model::TrialRecord;
+use std::collections::{HashMap, HashSet};
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct ExperimentArgs {
+    /// The experiment file, such as experiments/paper.toml.
+    file: PathBuf,
+    /// Trials per method, overriding the file's count for a quick look.
+    #[arg(long)]
+    trials: Option<u64>,
+    /// Output folder [default: results/<name>].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Finish an interrupted experiment in --out, skipping the trials it
+    /// already finished.
+    #[arg(long)]
+    resume: bool,
+    /// In-process evaluation threads; 0 means one per core.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// GA trials stepped together, a generation of each per round
+    /// [default: 4 per thread or worker].
+    #[arg(long, value_name = "N")]
+    in_flight: Option<usize>,
+    /// Print the summary as one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    transport: TransportArgs,
+}
+
+pub fn experiment(args: ExperimentArgs) -> anyhow::Result<()> {
+    let mut exp = Experiment::load(&args.file)?;
+    if let Some(trials) = args.trials {
+        exp.trials = trials;
+        exp.validate().context("--trials")?;
+    }
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("results").join(&exp.name));
+    let store = Store::open(&out, &exp, args.resume)?;
+    let mut records = store.finished()?;
+    let done: HashSet<Task> = records.iter().filter_map(Task::of).collect();
+    let todo: Vec<Task> = tasks(&exp)
+        .into_iter()
+        .filter(|t| !done.contains(t))
+        .collect();
+
+    let bars = MultiProgress::new();
+    let overall = bars.add(ProgressBar::new(tasks(&exp).len() as u64));
+    overall.set_style(style(
+        "trials [{bar:30}] {pos}/{len} ({elapsed}, eta {eta})",
+    ));
+    overall.set_position(done.len() as u64);
+    if !done.is_empty() {
+        overall.println(format!(
+            "resuming {}: {} trials finished, {} to go",
+            out.display(),
+            done.len(),
+            todo.len()
+        ));
+    }
+    let mut backend = args.transport.evaluator(args.threads, &overall)?;
+    let width = match args.transport.workers {
+        0 => rayon_width(args.threads),
+        n => n,
+    };
+    let in_flight = args.in_flight.unwrap_or(4 * width).max(1);
+    let mut progress = Bars {
+        bars: &bars,
+        overall: &overall,
+        running: HashMap::new(),
+        store: &store,
+        records: &mut records,
+    };
+    run(&exp, &todo, backend.as_mut(), in_flight, &mut progress)
+        .context("the experiment stopped")?;
+    drop(backend);
+    overall.finish_and_clear();
+
+    let records = ordered(&exp, records);
+    let summary = write_outputs(&out, &exp, &records)?;
+    if args.json {
+        println!("{}", serde_json::to_string(&summary)?);
+    } else {
+        println!("{}", summary.markdown());
+        println!("wrote {}", out.join("report.html").display());
+    }
+    Ok(())
+}
+
+fn rayon_width(threads: usize) -> usize {
+    if threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        threads
+    }
+}
+
+fn style(template: &str) -> ProgressStyle {
+    ProgressStyle::with_template(template)
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> ")
+}
+
+/// One bar for the experiment and one per running trial; finished trials
+/// go to the store at once.
+struct Bars<'a> {
+    bars: &'a MultiProgress,
+    overall: &'a ProgressBar,
+    running: HashMap<Task, ProgressBar>,
+    store: &'a Store,
+    records: &'a mut Vec<TrialRecord>,
+}
+
+impl Progress for Bars<'_> {
+    fn started(&mut self, task: Task, cfg: &RunConfig) {
+        let bar = match task.method {
+            Approach::Qlearning => {
+                let bar = self.bars.add(ProgressBar::new_spinner());
+                bar.set_style(style("{prefix:>18} training {spinner}"));
+                bar
+            }
+            _ => {
+                let bar = self.bars.add(ProgressBar::new(cfg.ga.max_generations));
+                bar.set_style(style("{prefix:>18} [{bar:20}] gen {pos}/{len} {msg}"));
+                bar
+            }
+        };
+        bar.set_prefix(format!("{} trial {}", task.method.name(), task.trial));
+        self.running.insert(task, bar);
+    }
+
+    fn generation(&mut self, task: Task, g: &Generation) {
+        if let Some(bar) = self.running.get(&task) {
+            bar.set_position(g.generation);
+            bar.set_message(format!("restart {} best {:.1}", g.restart, g.best));
+        }
+    }
+
+    fn finished(&mut self, record: TrialRecord) -> Result<(), ExperimentError> {
+        self.store
+            .save(&record)
+            .map_err(|e| ExperimentError::Store(e.to_string()))?;
+        if let Some(task) = Task::of(&record) {
+            if let Some(bar) = self.running.remove(&task) {
+                bar.finish_and_clear();
+                self.bars.remove(&bar);
+            }
+        }
+        self.records.push(record);
+        self.overall.inc(1);
+        Ok(())
+    }
+}

@@ -1,0 +1,155 @@
+//! How a command evaluates: in this process, or on `lander-worker`
+//! processes it spawns or that attach themselves, over iceoryx2 on this
+//! host or zenoh from any host.
+
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use indicatif::ProgressBar;
+use lander_coordinator::evaluator::{Backend, InProcess};
+use lander_coordinator::pool::zenoh::Zenoh;
+use lander_coordinator::pool::{IpcPool, Pool, PoolOptions, Say};
+use lander_protocol::iox::MAX_WORKERS;
+use lander_protocol::net::{authenticated, exposed, NetOptions};
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Transport {
+    /// Shared memory, for workers on this host.
+    Iceoryx2,
+    /// The network, for workers on any host.
+    Zenoh,
+}
+
+#[derive(Args, Debug)]
+pub struct TransportArgs {
+    /// Worker processes to spawn, evaluating over iceoryx2 shared memory;
+    /// 0 evaluates in this process.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub workers: usize,
+    /// Wait for workers started elsewhere with `lander-worker --run <id>`;
+    /// they may join or leave at any time.
+    #[arg(long)]
+    attach: bool,
+    /// The run id that names this run's iceoryx2 services [default: random].
+    #[arg(long, value_name = "ID")]
+    run_id: Option<String>,
+    /// Seconds a worker may take over one chunk before it goes to another.
+    #[arg(long, value_name = "SECS", default_value_t = 30.0)]
+    deadline: f64,
+    /// How workers are reached: iceoryx2 on this host, zenoh from any host.
+    #[arg(long, value_enum, default_value_t = Transport::Iceoryx2)]
+    transport: Transport,
+    /// zenoh: where to listen for workers, such as tcp/0.0.0.0:7447.
+    #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7447")]
+    listen: Vec<String>,
+    /// zenoh: a JSON5 zenoh configuration, for TLS and anything else.
+    #[arg(long, value_name = "FILE")]
+    zenoh_config: Option<PathBuf>,
+    /// zenoh: a file of `user:password` lines; only workers with one of
+    /// them may join.
+    #[arg(long, value_name = "FILE")]
+    users: Option<PathBuf>,
+}
+
+impl TransportArgs {
+    /// The evaluator the flags ask for: in-process, spawned workers, or
+    /// attached ones.
+    pub fn evaluator(&self, threads: usize, bar: &ProgressBar) -> anyhow::Result<Box<dyn Backend>> {
+        Ok(match self.pool(bar)? {
+            Some(pool) => pool,
+            None => Box::new(InProcess::new(threads)?),
+        })
+    }
+
+    /// The worker pool the flags ask for, or `None` for in-process work.
+    pub fn pool(&self, bar: &ProgressBar) -> anyhow::Result<Option<Box<dyn Backend>>> {
+        anyhow::ensure!(
+            self.workers <= MAX_WORKERS,
+            "--workers must be at most {MAX_WORKERS} (got {})",
+            self.workers
+        );
+        anyhow::ensure!(
+            self.deadline.is_finite() && self.deadline > 0.0,
+            "--deadline must be a positive number of seconds (got {})",
+            self.deadline
+        );
+        if self.workers == 0 && !self.attach {
+            anyhow::ensure!(
+                self.run_id.is_none(),
+                "--run-id needs --workers or --attach"
+            );
+            return Ok(None);
+        }
+        anyhow::ensure!(
+            !(self.attach && self.workers > 0),
+            "--attach and --workers N exclude each other: attach waits for workers started elsewhere"
+        );
+        let run_id = match &self.run_id {
+            Some(id) => check_run_id(id)?,
+            None => format!("{:08x}", rand::random::<u32>()),
+        };
+        let opts = pool_options(run_id, self.workers, Duration::from_secs_f64(self.deadline))?;
+        let bar = bar.clone();
+        let say = Box::new(move |msg: &str| bar.suspend(|| eprintln!("lander: {msg}")));
+        if self.attach {
+            say(&format!("run id {}", opts.run_id));
+        }
+        Ok(Some(match self.transport {
+            Transport::Iceoryx2 => Box::new(IpcPool::start(opts, say)?),
+            Transport::Zenoh => self.zenoh_pool(opts, say)?,
+        }))
+    }
+
+    fn zenoh_pool(&self, opts: PoolOptions, say: Say) -> anyhow::Result<Box<dyn Backend>> {
+        let options = NetOptions {
+            listen: self.listen.clone(),
+            config_file: self.zenoh_config.clone(),
+            users: self.users.clone(),
+            ..NetOptions::default()
+        };
+        let open = exposed(&options);
+        if !open.is_empty() && !authenticated(&options) {
+            say(&format!(
+                "warning: listening on {} without authentication: anyone who can reach it \
+                 can join this run and send it results; pass --users or a TLS --zenoh-config",
+                open.join(", ")
+            ));
+        }
+        let transport = Zenoh::open(&opts.run_id, &options)?;
+        Ok(Box::new(Pool::with_transport(transport, opts, say)?))
+    }
+}
+
+/// A pool that spawns `workers` copies of the `lander-worker` beside this
+/// executable (0: workers attach themselves).
+pub fn pool_options(
+    run_id: String,
+    workers: usize,
+    deadline: Duration,
+) -> anyhow::Result<PoolOptions> {
+    let worker_exe = std::env::current_exe()
+        .context("finding this executable")?
+        .with_file_name("lander-worker");
+    Ok(PoolOptions {
+        run_id,
+        spawn: workers,
+        worker_exe,
+        chunks_per_worker: 4,
+        deadline,
+        max_respawns: 3 * workers.max(1),
+    })
+}
+
+fn check_run_id(id: &str) -> anyhow::Result<String> {
+    let ok = !id.is_empty()
+        && id.len() <= 64
+        && id
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    anyhow::ensure!(
+        ok,
+        "--run-id must be 1 to 64 letters, digits, '-' or '_' (got {id:?})"
+    );
+    Ok(id.to_string())
+}

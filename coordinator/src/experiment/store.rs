@@ -1,0 +1,233 @@
+//! The experiment's folder while it runs: the experiment it belongs to
+//! (`experiment.json`) and one record per finished trial under `trials/`,
+//! each written whole or not at all, so `--resume` can trust what it finds.
+
+use super::file::Experiment;
+use super::runner::Task;
+use crate::report::write_json;
+use lander_report::model::TrialRecord;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    #[error("{path}: {message}")]
+    Io { path: PathBuf, message: String },
+    #[error("{dir} already holds an experiment's results; pass --resume to finish it, or choose another --out")]
+    Occupied { dir: PathBuf },
+    #[error(
+        "{dir} holds results of a different experiment ({field} differs); choose another --out"
+    )]
+    Different { dir: PathBuf, field: String },
+    #[error("{dir} holds no experiment to resume (no experiment.json)")]
+    NothingToResume { dir: PathBuf },
+}
+
+fn io(path: &Path) -> impl Fn(std::io::Error) -> StoreError + '_ {
+    move |e| StoreError::Io {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+pub struct Store {
+    dir: PathBuf,
+}
+
+impl Store {
+    /// Opens `dir` for `exp`: a new folder, or with `resume` one that an
+    /// interrupted run of the same experiment left.
+    pub fn open(dir: &Path, exp: &Experiment, resume: bool) -> Result<Store, StoreError> {
+        let store = Store {
+            dir: dir.to_path_buf(),
+        };
+        let definition = dir.join("experiment.json");
+        match (definition.exists(), resume) {
+            (true, false) => return Err(StoreError::Occupied { dir: store.dir }),
+            (false, true) => return Err(StoreError::NothingToResume { dir: store.dir }),
+            (true, true) => store.check_same(&definition, exp)?,
+            (false, false) => {}
+        }
+        let trials = store.trials_dir();
+        std::fs::create_dir_all(&trials).map_err(io(&trials))?;
+        write_json(&definition, exp).map_err(|e| StoreError::Io {
+            path: definition.clone(),
+            message: e.source.to_string(),
+        })?;
+        Ok(store)
+    }
+
+    /// A folder to read finished trials from, changing nothing in it.
+    pub fn read_only(dir: &Path) -> Store {
+        Store {
+            dir: dir.to_path_buf(),
+        }
+    }
+
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    fn trials_dir(&self) -> PathBuf {
+        self.dir.join("trials")
+    }
+
+    fn check_same(&self, definition: &Path, exp: &Experiment) -> Result<(), StoreError> {
+        let text = std::fs::read_to_string(definition).map_err(io(definition))?;
+        let stored: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| StoreError::Io {
+                path: definition.to_path_buf(),
+                message: e.to_string(),
+            })?;
+        let current = serde_json::to_value(exp).map_err(|e| StoreError::Io {
+            path: definition.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        match first_difference(&stored, &current, "") {
+            None => Ok(()),
+            Some(field) => Err(StoreError::Different {
+                dir: self.dir.clone(),
+                field,
+            }),
+        }
+    }
+
+    fn path_of(&self, task: Task) -> PathBuf {
+        self.trials_dir()
+            .join(format!("{}-{:05}.json", task.method.name(), task.trial))
+    }
+
+    /// Writes one finished trial, atomically.
+    pub fn save(&self, record: &TrialRecord) -> Result<(), StoreError> {
+        let Some(task) = Task::of(record) else {
+            return Err(StoreError::Io {
+                path: self.trials_dir(),
+                message: format!("unknown method {:?}", record.method),
+            });
+        };
+        let path = self.path_of(task);
+        write_json(&path, record).map_err(|e| StoreError::Io {
+            path,
+            message: e.source.to_string(),
+        })
+    }
+
+    /// The trials finished so far, in file-name order. A temporary file
+    /// left by an interrupted write is removed.
+    pub fn finished(&self) -> Result<Vec<TrialRecord>, StoreError> {
+        let dir = self.trials_dir();
+        let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
+            .map_err(io(&dir))?
+            .map(|e| e.map(|e| e.path()).map_err(io(&dir)))
+            .collect::<Result<_, _>>()?;
+        paths.sort();
+        let mut records = Vec::new();
+        for path in paths {
+            match path.extension().and_then(|e| e.to_str()) {
+                Some("json") => {}
+                Some("tmp") => {
+                    std::fs::remove_file(&path).map_err(io(&path))?;
+                    continue;
+                }
+                _ => continue,
+            }
+            let text = std::fs::read_to_string(&path).map_err(io(&path))?;
+            let record: TrialRecord = serde_json::from_str(&text).map_err(|e| StoreError::Io {
+                path: path.clone(),
+                message: format!("not a trial record: {e}"),
+            })?;
+            records.push(record);
+        }
+        Ok(records)
+    }
+}
+
+/// The dotted path of the first field where two JSON values differ.
+fn first_difference(a: &serde_json::Value, b: &serde_json::Value, at: &str) -> Option<String> {
+    use serde_json::Value::Object;
+    match (a, b) {
+        (Object(x), Object(y)) => {
+            let keys = x.keys().chain(y.keys().filter(|k| !x.contains_key(*k)));
+            for key in keys {
+                let here = if at.is_empty() {
+                    key.clone()
+                } else {
+                    format!("{at}.{key}")
+                };
+                match (x.get(key), y.get(key)) {
+                    (Some(p), Some(q)) => {
+                        if let Some(d) = first_difference(p, q, &here) {
+                            return Some(d);
+                        }
+                    }
+                    _ => return Some(here),
+                }
+            }
+            None
+        }
+        _ if a == b => None,
+        _ => Some(if at.is_empty() {
+            "the file".into()
+        } else {
+            at.into()
+        }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Approach;
+
+    fn record(method: &str, trial: u64) -> TrialRecord {
+        TrialRecord {
+            method: method.into(),
+            seed: 1,
+            trial,
+            x0: 10.0,
+            pad_x: 100.0,
+            landed: true,
+            generations: Some(7),
+            restarts: Some(0),
+            episodes: None,
+            wall_s: 0.5,
+            fitness: Vec::new(),
+            best: None,
+            learning: None,
+        }
+    }
+
+    #[test]
+    fn a_folder_is_resumed_only_by_its_own_experiment() {
+        let dir = std::env::temp_dir().join(format!("lander-store-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let exp = Experiment::default();
+        assert!(matches!(
+            Store::open(&dir, &exp, true),
+            Err(StoreError::NothingToResume { .. })
+        ));
+        let store = Store::open(&dir, &exp, false).unwrap();
+        store.save(&record("guided", 2)).unwrap();
+        store.save(&record("ga", 2)).unwrap();
+        std::fs::write(dir.join("trials/ga-00003.json.tmp"), "{half").unwrap();
+        assert!(matches!(
+            Store::open(&dir, &exp, false),
+            Err(StoreError::Occupied { .. })
+        ));
+        let mut other = exp.clone();
+        other.ga.population = 7;
+        match Store::open(&dir, &other, true) {
+            Err(StoreError::Different { field, .. }) => assert_eq!(field, "ga.population"),
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("a different experiment resumed the folder"),
+        }
+        let again = Store::open(&dir, &exp, true).unwrap();
+        let found = again.finished().unwrap();
+        let tasks: Vec<Task> = found.iter().filter_map(Task::of).collect();
+        assert_eq!(
+            tasks,
+            [Approach::Ga, Approach::Guided].map(|method| Task { method, trial: 2 })
+        );
+        assert!(!dir.join("trials/ga-00003.json.tmp").exists());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,353 @@
+//! The zenoh transport, for workers on other hosts. Workers declare a
+//! liveliness token that says who they are; the coordinator subscribes to
+//! the tokens, so it sees a worker arrive, and leave when its token goes
+//! (a closed connection, or a lease run out). A job is a query to the
+//! worker's own key; its reply is the result. Every callback only forwards
+//! into a channel the pool sleeps on, so zenoh's threads never block.
+
+use super::{check, Answer, Arrival, ChunkTiming, Transport, WorkerLink, DEPTH};
+use crate::evaluator::EvalError;
+use lander_protocol::envelope::{decode_result, encode_job};
+use lander_protocol::net::{self, coordinator_config, NetError, NetOptions, RunKeys};
+use lander_protocol::wire::{JobHeader, WireGene};
+use std::collections::VecDeque;
+use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use zenoh::handlers::CallbackDrop;
+use zenoh::query::{ConsolidationMode, Reply};
+use zenoh::sample::{Sample, SampleKind};
+use zenoh::{Session, Wait};
+
+/// A query without a deadline (a whole Q(λ) trial) still ends some day.
+const NO_DEADLINE: Duration = Duration::from_secs(7 * 24 * 3600);
+
+enum Event {
+    Arrived(Arrival),
+    Left(u64),
+    /// Something changed in a link's queries.
+    Bell,
+}
+
+impl From<NetError> for EvalError {
+    fn from(e: NetError) -> EvalError {
+        EvalError::Net(e.to_string())
+    }
+}
+
+/// The coordinator's zenoh session and its view of the run's workers.
+pub struct Zenoh {
+    session: Session,
+    keys: RunKeys,
+    events: Receiver<Event>,
+    bell: Sender<Event>,
+    arrived: Vec<Arrival>,
+    left: Vec<u64>,
+    /// What spawned workers are told to connect to.
+    worker_args: Vec<String>,
+    // Dropping these would undeclare them.
+    _tokens: zenoh::pubsub::Subscriber<()>,
+    _alive: zenoh::liveliness::LivelinessToken,
+}
+
+impl Zenoh {
+    /// Opens the session, listening as `options` say, and starts watching
+    /// the run's liveliness tokens.
+    pub fn open(run_id: &str, options: &NetOptions) -> Result<Zenoh, EvalError> {
+        let config = coordinator_config(options)?;
+        let session = zenoh::open(config)
+            .wait()
+            .map_err(net::fail("opening the zenoh session"))?;
+        let keys = RunKeys::new(run_id);
+        let (bell, events) = channel();
+        let tx = bell.clone();
+        let watch = keys.clone();
+        let tokens = session
+            .liveliness()
+            .declare_subscriber(keys.alive_all())
+            .history(true)
+            .callback(move |sample: Sample| {
+                let Some((id, version, pid)) = watch.parse_alive(sample.key_expr().as_str()) else {
+                    return;
+                };
+                let event = match sample.kind() {
+                    SampleKind::Put => Event::Arrived(Arrival { id, pid, version }),
+                    SampleKind::Delete => Event::Left(id),
+                };
+                let _ = tx.send(event);
+            })
+            .wait()
+            .map_err(net::fail("watching for workers"))?;
+        let alive = session
+            .liveliness()
+            .declare_token(keys.coordinator())
+            .wait()
+            .map_err(net::fail("declaring the coordinator's token"))?;
+        let mut worker_args = vec!["--transport".to_string(), "zenoh".to_string()];
+        for endpoint in &options.listen {
+            worker_args.push("--connect".into());
+            worker_args.push(reachable(endpoint));
+        }
+        Ok(Zenoh {
+            session,
+            keys,
+            events,
+            bell,
+            arrived: Vec::new(),
+            left: Vec::new(),
+            worker_args,
+            _tokens: tokens,
+            _alive: alive,
+        })
+    }
+
+    fn take(&mut self, event: Event) {
+        match event {
+            Event::Arrived(a) => self.arrived.push(a),
+            Event::Left(id) => self.left.push(id),
+            Event::Bell => {}
+        }
+    }
+}
+
+/// A listen endpoint as a worker on this host connects to it.
+fn reachable(endpoint: &str) -> String {
+    endpoint
+        .replace("0.0.0.0", "127.0.0.1")
+        .replace("[::]", "[::1]")
+}
+
+impl Transport for Zenoh {
+    type Link = Link;
+
+    fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError> {
+        while let Ok(event) = self.events.try_recv() {
+            self.take(event);
+        }
+        Ok(std::mem::take(&mut self.arrived))
+    }
+
+    fn connect(&mut self, a: &Arrival) -> Result<Link, String> {
+        Ok(Link {
+            id: a.id,
+            pid: a.pid,
+            session: self.session.clone(),
+            jobs: self.keys.jobs(a.id),
+            leave: self.keys.leave(a.id),
+            bell: self.bell.clone(),
+            busy: VecDeque::new(),
+            broken: false,
+        })
+    }
+
+    fn departures(&mut self) -> Vec<u64> {
+        while let Ok(event) = self.events.try_recv() {
+            self.take(event);
+        }
+        std::mem::take(&mut self.left)
+    }
+
+    fn sleep(&mut self, max: Duration) -> Result<(), EvalError> {
+        match self.events.recv_timeout(max) {
+            Ok(event) => {
+                self.take(event);
+                Ok(())
+            }
+            Err(RecvTimeoutError::Timeout) => Ok(()),
+            // The transport holds a sender itself, so this cannot happen.
+            Err(RecvTimeoutError::Disconnected) => {
+                Err(EvalError::Net("event channel closed".into()))
+            }
+        }
+    }
+
+    fn worker_args(&self) -> Vec<String> {
+        self.worker_args.clone()
+    }
+
+    fn close(&mut self) {
+        let _ = self.session.close().wait();
+    }
+}
+
+/// What became of a query so far.
+#[derive(Default)]
+struct Slot {
+    reply: Option<Result<Vec<u8>, String>>,
+    /// zenoh finished the query: replied, timed out, or the worker went.
+    finished: bool,
+}
+
+struct InFlight {
+    job_id: u64,
+    job: usize,
+    slot: Arc<Mutex<Slot>>,
+    sent: Instant,
+    queued: bool,
+    deadline: Option<Instant>,
+}
+
+pub struct Link {
+    id: u64,
+    pid: u32,
+    session: Session,
+    jobs: String,
+    leave: String,
+    bell: Sender<Event>,
+    /// Oldest first; the worker answers in order.
+    busy: VecDeque<InFlight>,
+    broken: bool,
+}
+
+impl WorkerLink for Link {
+    fn id(&self) -> u64 {
+        self.id
+    }
+
+    fn pid(&self) -> u32 {
+        self.pid
+    }
+
+    fn has_room(&self) -> bool {
+        self.busy.len() < DEPTH && !self.broken
+    }
+
+    fn is_broken(&self) -> bool {
+        self.broken
+    }
+
+    fn deadline(&self) -> Option<Instant> {
+        self.busy.iter().filter_map(|f| f.deadline).min()
+    }
+
+    fn abandon(&mut self) -> Vec<usize> {
+        self.busy.drain(..).map(|f| f.job).collect()
+    }
+
+    fn send(
+        &mut self,
+        header: JobHeader,
+        genes: &[WireGene],
+        job: usize,
+        deadline: Option<Duration>,
+    ) -> Result<(), String> {
+        let slot = Arc::new(Mutex::new(Slot::default()));
+        let (on_reply, on_end) = (slot.clone(), slot.clone());
+        let (bell, bell_end) = (self.bell.clone(), self.bell.clone());
+        let sent = self
+            .session
+            .get(&self.jobs)
+            .payload(encode_job(&header, genes))
+            .consolidation(ConsolidationMode::None)
+            // zenoh's own timeout only ends the query; the pool's deadline
+            // decides, a little earlier.
+            .timeout(deadline.map_or(NO_DEADLINE, |d| d + Duration::from_secs(5)))
+            .with(CallbackDrop {
+                callback: move |reply: Reply| {
+                    let answer = match reply.into_result() {
+                        Ok(sample) => Ok(sample.payload().to_bytes().into_owned()),
+                        Err(e) => {
+                            Err(String::from_utf8_lossy(&e.payload().to_bytes()).into_owned())
+                        }
+                    };
+                    if let Ok(mut s) = on_reply.lock() {
+                        s.reply.get_or_insert(answer);
+                    }
+                    let _ = bell.send(Event::Bell);
+                },
+                drop: move || {
+                    if let Ok(mut s) = on_end.lock() {
+                        s.finished = true;
+                    }
+                    let _ = bell_end.send(Event::Bell);
+                },
+            })
+            .wait();
+        if let Err(e) = sent {
+            self.broken = true;
+            return Err(format!("sending a query: {e}"));
+        }
+        let now = Instant::now();
+        let queued = !self.busy.is_empty();
+        self.busy.push_back(InFlight {
+            job_id: header.job_id,
+            job,
+            slot,
+            sent: now,
+            queued,
+            deadline: deadline.map(|d| now + d),
+        });
+        Ok(())
+    }
+
+    fn poll(&mut self) -> (Vec<Answer>, Option<String>) {
+        let mut answered = Vec::new();
+        let mut i = 0;
+        while i < self.busy.len() {
+            let flight = &self.busy[i];
+            let (reply, finished) = match flight.slot.lock() {
+                Ok(mut s) => (s.reply.take(), s.finished),
+                Err(_) => (None, true),
+            };
+            let answer = match reply {
+                Some(Ok(frame)) => {
+                    decode_result(&frame)
+                        .map_err(|e| e.to_string())
+                        .and_then(|(h, body)| {
+                            let timing = ChunkTiming {
+                                round_trip: flight.sent.elapsed(),
+                                compute: Duration::from_nanos(h.compute_ns),
+                                queued: flight.queued,
+                            };
+                            check(flight.job_id, &h, &body).map(|body| (body, timing))
+                        })
+                }
+                Some(Err(e)) => Err(format!("the worker answered with an error: {e}")),
+                None if finished => {
+                    // The query ended unanswered: the worker is gone.
+                    self.broken = true;
+                    break;
+                }
+                None => {
+                    i += 1;
+                    continue;
+                }
+            };
+            match answer {
+                Ok((body, timing)) => {
+                    answered.push(Answer {
+                        job: flight.job,
+                        body,
+                        timing,
+                    });
+                    self.busy.remove(i);
+                }
+                Err(e) => {
+                    self.broken = true;
+                    return (answered, Some(e));
+                }
+            }
+        }
+        (answered, None)
+    }
+
+    fn break_off(&mut self) {
+        self.broken = true;
+    }
+
+    fn shut_down(&self) {
+        let _ = self.session.put(&self.leave, Vec::<u8>::new()).wait();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::reachable;
+
+    #[test]
+    fn spawned_workers_connect_to_loopback() {
+        assert_eq!(reachable("tcp/0.0.0.0:7447"), "tcp/127.0.0.1:7447");
+        assert_eq!(reachable("tcp/[::]:7447"), "tcp/[::1]:7447");
+        assert_eq!(reachable("tcp/10.0.0.5:7447"), "tcp/10.0.0.5:7447");
+    }
+}

@@ -1,0 +1,250 @@
+//! zenoh for workers on other hosts: the session configurations of both
+//! ends and the run's key expressions. Endpoints are explicit and scouting
+//! is off, so a session reaches only the hosts it is told of; shared memory
+//! is not compiled in, so queries never take zenoh's shared-memory path.
+
+use std::path::{Path, PathBuf};
+use zenoh::Config;
+
+/// How a session is secured and where it listens or connects.
+#[derive(Clone, Debug, Default)]
+pub struct NetOptions {
+    /// Endpoints to listen on, such as `tcp/0.0.0.0:7447`.
+    pub listen: Vec<String>,
+    /// Endpoints to connect to, such as `tcp/10.0.0.5:7447`.
+    pub connect: Vec<String>,
+    /// A zenoh JSON5 configuration file applied first, for TLS and anything
+    /// else zenoh offers.
+    pub config_file: Option<PathBuf>,
+    /// The coordinator's `user:password` dictionary: only workers that
+    /// present one of its pairs may join.
+    pub users: Option<PathBuf>,
+    /// A worker's credentials, `user:password` on the first line of a file.
+    pub credentials: Option<PathBuf>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum NetError {
+    #[error("zenoh configuration {key}: {detail}")]
+    Config { key: String, detail: String },
+    #[error("{path}: {detail}")]
+    File { path: PathBuf, detail: String },
+    #[error("{what}: {detail}")]
+    Zenoh { what: String, detail: String },
+}
+
+/// A zenoh failure while doing `what`.
+pub fn fail<E: std::fmt::Display>(what: &str) -> impl Fn(E) -> NetError + '_ {
+    move |e| NetError::Zenoh {
+        what: what.to_string(),
+        detail: e.to_string(),
+    }
+}
+
+fn set(cfg: &mut Config, key: &str, value: &str) -> Result<(), NetError> {
+    cfg.insert_json5(key, value).map_err(|e| NetError::Config {
+        key: key.to_string(),
+        detail: e.to_string(),
+    })
+}
+
+fn json(v: &impl serde::Serialize) -> String {
+    serde_json::to_string(v).unwrap_or_default()
+}
+
+/// The settings both ends share, over `options.config_file` if given.
+fn base(options: &NetOptions, mode: &str) -> Result<Config, NetError> {
+    let mut cfg = match &options.config_file {
+        Some(path) => Config::from_file(path).map_err(|e| NetError::File {
+            path: path.clone(),
+            detail: e.to_string(),
+        })?,
+        None => Config::default(),
+    };
+    set(&mut cfg, "mode", &json(&mode))?;
+    set(&mut cfg, "scouting/multicast/enabled", "false")?;
+    set(&mut cfg, "scouting/gossip/enabled", "false")?;
+    // Both ends notice a silent peer (a cut cable, a frozen host) within
+    // the lease; a killed process is noticed at once by its closed socket.
+    set(&mut cfg, "transport/link/tx/lease", "3000")?;
+    if !options.listen.is_empty() {
+        set(&mut cfg, "listen/endpoints", &json(&options.listen))?;
+    }
+    if !options.connect.is_empty() {
+        set(&mut cfg, "connect/endpoints", &json(&options.connect))?;
+    }
+    Ok(cfg)
+}
+
+/// The coordinator: a peer that listens and checks workers' credentials.
+pub fn coordinator_config(options: &NetOptions) -> Result<Config, NetError> {
+    let mut cfg = base(options, "peer")?;
+    if let Some(users) = &options.users {
+        readable(users)?;
+        set(
+            &mut cfg,
+            "transport/auth/usrpwd/dictionary_file",
+            &json(&users.display().to_string()),
+        )?;
+    }
+    Ok(cfg)
+}
+
+/// A worker: a client of the coordinator, never listening itself.
+pub fn worker_config(options: &NetOptions) -> Result<Config, NetError> {
+    let mut cfg = base(options, "client")?;
+    set(&mut cfg, "listen/endpoints", "[]")?;
+    // One attempt per open; the worker loops, so it can still be stopped.
+    set(&mut cfg, "connect/timeout_ms", "2000")?;
+    if let Some(path) = &options.credentials {
+        let (user, password) = credentials(path)?;
+        set(&mut cfg, "transport/auth/usrpwd/user", &json(&user))?;
+        set(&mut cfg, "transport/auth/usrpwd/password", &json(&password))?;
+    }
+    Ok(cfg)
+}
+
+fn readable(path: &Path) -> Result<String, NetError> {
+    std::fs::read_to_string(path).map_err(|e| NetError::File {
+        path: path.to_path_buf(),
+        detail: e.to_string(),
+    })
+}
+
+/// Reads `user:password` from the first line of a file, so the password
+/// stays off command lines and out of `ps`.
+pub fn credentials(path: &Path) -> Result<(String, String), NetError> {
+    let text = readable(path)?;
+    let line = text.lines().next().unwrap_or("").trim();
+    match line.split_once(':') {
+        Some((user, password)) if !user.is_empty() && !password.is_empty() => {
+            Ok((user.to_string(), password.to_string()))
+        }
+        _ => Err(NetError::File {
+            path: path.to_path_buf(),
+            detail: "the first line must be user:password".into(),
+        }),
+    }
+}
+
+/// True when the options say who may join: a user dictionary, or a zenoh
+/// configuration file (which is where TLS with client certificates goes).
+pub fn authenticated(options: &NetOptions) -> bool {
+    options.users.is_some() || options.config_file.is_some()
+}
+
+/// The listen endpoints reachable from other hosts: anything but loopback.
+pub fn exposed(options: &NetOptions) -> Vec<&str> {
+    options
+        .listen
+        .iter()
+        .map(String::as_str)
+        .filter(|e| {
+            let host = e.split_once('/').map_or(*e, |(_, a)| a);
+            let host = host.rsplit_once(':').map_or(host, |(h, _)| h);
+            !(host.starts_with("127.") || host == "localhost" || host == "[::1]")
+        })
+        .collect()
+}
+
+/// The key expressions of one run.
+#[derive(Clone, Debug)]
+pub struct RunKeys {
+    run: String,
+}
+
+impl RunKeys {
+    pub fn new(run: &str) -> RunKeys {
+        RunKeys {
+            run: run.to_string(),
+        }
+    }
+
+    /// Every worker's liveliness token.
+    pub fn alive_all(&self) -> String {
+        format!("lander/{}/alive/**", self.run)
+    }
+
+    /// A worker's liveliness token: its id, protocol version and pid.
+    pub fn alive(&self, id: u64, version: u32, pid: u32) -> String {
+        format!("lander/{}/alive/{id:016x}/{version}/{pid}", self.run)
+    }
+
+    /// Reads id, version and pid back from a token's key.
+    pub fn parse_alive(&self, key: &str) -> Option<(u64, u32, u32)> {
+        let rest = key.strip_prefix(&format!("lander/{}/alive/", self.run))?;
+        let mut parts = rest.split('/');
+        let id = u64::from_str_radix(parts.next()?, 16).ok()?;
+        let version = parts.next()?.parse().ok()?;
+        let pid = parts.next()?.parse().ok()?;
+        parts.next().is_none().then_some((id, version, pid))
+    }
+
+    /// The coordinator's liveliness token: workers leave when it goes.
+    pub fn coordinator(&self) -> String {
+        format!("lander/{}/coordinator", self.run)
+    }
+
+    /// Where a worker takes jobs.
+    pub fn jobs(&self, id: u64) -> String {
+        format!("lander/{}/worker/{id:016x}/jobs", self.run)
+    }
+
+    /// Where a worker is told to leave.
+    pub fn leave(&self, id: u64) -> String {
+        format!("lander/{}/worker/{id:016x}/leave", self.run)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tokens_carry_id_version_and_pid() {
+        let keys = RunKeys::new("r1");
+        let key = keys.alive(0xabc, 2, 77);
+        assert_eq!(key, "lander/r1/alive/0000000000000abc/2/77");
+        assert_eq!(keys.parse_alive(&key), Some((0xabc, 2, 77)));
+        assert_eq!(keys.parse_alive("lander/r2/alive/1/2/3"), None);
+        assert_eq!(keys.parse_alive("lander/r1/alive/zz/2/3"), None);
+        assert_eq!(keys.parse_alive("lander/r1/alive/1/2/3/4"), None);
+    }
+
+    #[test]
+    fn only_loopback_is_private() {
+        let options = NetOptions {
+            listen: vec![
+                "tcp/127.0.0.1:7447".into(),
+                "tcp/0.0.0.0:7447".into(),
+                "tcp/[::1]:7447".into(),
+                "tls/10.0.0.5:7447".into(),
+            ],
+            ..NetOptions::default()
+        };
+        assert_eq!(exposed(&options), ["tcp/0.0.0.0:7447", "tls/10.0.0.5:7447"]);
+    }
+
+    #[test]
+    fn configurations_are_accepted_by_zenoh() {
+        let dir = std::env::temp_dir().join(format!("lander-net-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let users = dir.join("users");
+        let creds = dir.join("creds");
+        std::fs::write(&users, "w:secret\n").unwrap();
+        std::fs::write(&creds, "w:secret\n").unwrap();
+        let options = NetOptions {
+            listen: vec!["tcp/127.0.0.1:0".into()],
+            connect: vec!["tcp/127.0.0.1:7447".into()],
+            users: Some(users),
+            credentials: Some(creds.clone()),
+            ..NetOptions::default()
+        };
+        coordinator_config(&options).unwrap();
+        worker_config(&options).unwrap();
+        std::fs::write(&creds, "no colon\n").unwrap();
+        let e = worker_config(&options).unwrap_err().to_string();
+        assert!(e.contains("user:password"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,297 @@
+//! `lander experiment` and `lander replay` as a user runs them: every output
+//! file, their agreement, determinism across backends, and resuming after a
+//! kill.
+
+use lander_tests::{json_lines, lander, stderr, wait_until, Iox};
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::fs;
+use std::path::Path;
+use std::process::Command;
+
+/// A small experiment: 3 trials of every method, with small caps.
+const SMALL: &str = r#"
+name = "small"
+seed = 3
+trials = 3
+methods = ["ga", "guided", "qlearning"]
+figure_trial = 2
+[ga]
+population = 40
+max_generations = 60
+max_restarts = 1
+[qlearning]
+episodes = 300
+"#;
+
+fn write_file(dir: &Path, text: &str) -> String {
+    let path = dir.join("small.toml");
+    fs::write(&path, text).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+fn run_experiment(file: &str, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["experiment", file, "--json", "--out", out.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    lander(&args)
+}
+
+/// `trials.csv` as rows of column name to value.
+fn csv_rows(path: &Path) -> Vec<BTreeMap<String, String>> {
+    let text = fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    lines
+        .map(|l| {
+            header
+                .iter()
+                .zip(l.split(','))
+                .map(|(h, v)| (h.to_string(), v.to_string()))
+                .collect()
+        })
+        .collect()
+}
+
+/// The rows without the wall time, which no two runs share.
+fn results_of(dir: &Path) -> Vec<BTreeMap<String, String>> {
+    let mut rows = csv_rows(&dir.join("trials.csv"));
+    for r in &mut rows {
+        r.remove("wall_s");
+    }
+    rows
+}
+
+#[test]
+fn a_small_experiment_writes_every_file_and_they_agree() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_file(dir.path(), SMALL);
+    let out = dir.path().join("out");
+    let run = run_experiment(&file, &out, &[]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let summary: Value = serde_json::from_slice(&run.stdout).unwrap();
+
+    for name in [
+        "trials.csv",
+        "generations.jsonl",
+        "summary.json",
+        "summary.md",
+        "report.html",
+        "fig3-generations.svg",
+        "fig3-generations.png",
+        "fig4-fitness-trial2.svg",
+        "fig4-fitness-trial2.png",
+        "qlearning-curve.svg",
+        "qlearning-curve.png",
+    ] {
+        let bytes = fs::read(out.join(name)).unwrap_or_else(|_| panic!("{name} missing"));
+        assert!(!bytes.is_empty(), "{name} is empty");
+        if name.ends_with(".png") {
+            assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{name}");
+        }
+        if name.ends_with(".svg") {
+            assert!(String::from_utf8_lossy(&bytes).contains("<svg"), "{name}");
+        }
+    }
+    let stored: Value =
+        serde_json::from_str(&fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(stored, summary, "stdout and summary.json differ");
+
+    // One CSV row per method and trial, in trial order.
+    let rows = csv_rows(&out.join("trials.csv"));
+    let order: Vec<(&str, &str)> = rows
+        .iter()
+        .map(|r| (r["method"].as_str(), r["trial"].as_str()))
+        .collect();
+    assert_eq!(
+        order,
+        [
+            ("ga", "1"),
+            ("guided", "1"),
+            ("qlearning", "1"),
+            ("ga", "2"),
+            ("guided", "2"),
+            ("qlearning", "2"),
+            ("ga", "3"),
+            ("guided", "3"),
+            ("qlearning", "3"),
+        ]
+    );
+    // Paired: a trial's methods share x0 and pad_x.
+    for t in rows.chunks(3) {
+        assert!(t
+            .iter()
+            .all(|r| r["x0"] == t[0]["x0"] && r["pad_x"] == t[0]["pad_x"]));
+    }
+
+    // generations.jsonl holds every generation the CSV counts.
+    let lines = json_lines(&out.join("generations.jsonl"));
+    for r in rows.iter().filter(|r| r["method"] != "qlearning") {
+        let flown = lines
+            .iter()
+            .filter(|l| l["method"] == r["method"].as_str() && l["trial"].to_string() == r["trial"])
+            .count();
+        assert_eq!(flown.to_string(), r["generations"], "{r:?}");
+        assert!(r["episodes"].is_empty());
+    }
+
+    // The summary counts what the CSV says.
+    for m in summary["methods"].as_array().unwrap() {
+        let name = m["method"].as_str().unwrap();
+        let of: Vec<_> = rows.iter().filter(|r| r["method"] == name).collect();
+        let landed = of.iter().filter(|r| r["landed"] == "true").count();
+        assert_eq!(m["trials"], of.len());
+        assert_eq!(m["landed"], landed);
+    }
+    let q = &summary["qlearning"];
+    assert_eq!(q["trials"], 3);
+    assert_eq!(q["episodes"], 300);
+    let q_rows: Vec<_> = rows.iter().filter(|r| r["method"] == "qlearning").collect();
+    let q_landed = q_rows.iter().filter(|r| r["landed"] == "true").count();
+    assert_eq!(q["landed"], q_landed);
+    for r in q_rows {
+        assert!(r["generations"].is_empty());
+        assert_eq!(r["landed"] == "true", !r["episodes"].is_empty());
+    }
+    let p = &summary["paired"];
+    assert_eq!(p["pairs"], 3);
+    let fewer = rows
+        .chunks(3)
+        .filter(|t| {
+            t[1]["generations"].parse::<u64>().unwrap()
+                < t[0]["generations"].parse::<u64>().unwrap()
+        })
+        .count();
+    assert_eq!(p["guided_fewer"], fewer);
+    assert!(!summary["claims"].as_array().unwrap().is_empty());
+
+    let md = fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(md.contains("Wilcoxon signed-rank test") || p["wilcoxon"].is_null());
+    assert!(md.contains("## The paper's statements"));
+
+    // The best landing replays from the folder.
+    let svg = dir.path().join("best.svg");
+    let replay = lander(&[
+        "replay",
+        "--run",
+        out.to_str().unwrap(),
+        "--out",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(replay.status.success(), "{}", stderr(&replay));
+    assert!(fs::read_to_string(&svg).unwrap().contains("<svg"));
+}
+
+#[test]
+fn results_do_not_depend_on_workers_or_trials_in_flight() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_file(dir.path(), SMALL);
+    let inproc = dir.path().join("inproc");
+    let serial = dir.path().join("serial");
+    let workers = dir.path().join("workers");
+    assert!(run_experiment(&file, &inproc, &[]).status.success());
+    assert!(
+        run_experiment(&file, &serial, &["--in-flight", "1", "--threads", "1"])
+            .status
+            .success()
+    );
+    let iox = Iox::new("experiment");
+    let out = iox.lander(&[
+        "experiment",
+        &file,
+        "--json",
+        "--workers",
+        "2",
+        "--out",
+        workers.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let expected = results_of(&inproc);
+    assert_eq!(results_of(&serial), expected);
+    assert_eq!(results_of(&workers), expected);
+    assert_eq!(
+        fs::read(inproc.join("generations.jsonl")).unwrap(),
+        fs::read(workers.join("generations.jsonl")).unwrap()
+    );
+}
+
+#[test]
+fn a_killed_experiment_resumes_where_it_stopped() {
+    let dir = tempfile::tempdir().unwrap();
+    // Long enough that the kill lands mid-run.
+    let text = SMALL
+        .replace("trials = 3", "trials = 8")
+        .replace("max_generations = 60", "max_generations = 400")
+        .replace("episodes = 300", "episodes = 3000");
+    let file = write_file(dir.path(), &text);
+    let whole = dir.path().join("whole");
+    let out = dir.path().join("killed");
+    assert!(run_experiment(&file, &whole, &[]).status.success());
+
+    let mut child = Command::new(lander_tests::binary("lander"))
+        .args(["experiment", &file, "--out", out.to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let trials = out.join("trials");
+    let started = wait_until(60, || fs::read_dir(&trials).map_or(0, |d| d.count()) >= 2);
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(started, "no trial finished within a minute");
+    assert!(
+        !out.join("summary.json").exists(),
+        "the run ended before the kill"
+    );
+    let kept = fs::read_dir(&trials).unwrap().count();
+    assert!(kept < 24, "every trial had finished");
+
+    // Without --resume the folder is refused, not overwritten.
+    let refused = run_experiment(&file, &out, &[]);
+    assert!(!refused.status.success());
+    assert!(
+        stderr(&refused).contains("--resume"),
+        "{}",
+        stderr(&refused)
+    );
+    // A different experiment may not resume it.
+    let other = run_experiment(&file, &out, &["--resume", "--trials", "9"]);
+    assert!(!other.status.success());
+    assert!(
+        stderr(&other).contains("trials differs"),
+        "{}",
+        stderr(&other)
+    );
+
+    let resumed = run_experiment(&file, &out, &["--resume"]);
+    assert!(resumed.status.success(), "{}", stderr(&resumed));
+    assert_eq!(results_of(&out), results_of(&whole));
+    assert_eq!(fs::read_dir(&trials).unwrap().count(), 24);
+}
+
+#[test]
+fn bad_experiment_files_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = lander(&["experiment", "/nonexistent/paper.toml"]);
+    assert!(!missing.status.success());
+    assert!(stderr(&missing).contains("/nonexistent/paper.toml"));
+    for (text, field) in [
+        ("trials = 0", "trials"),
+        ("methods = [\"ga\", \"sarsa\"]", "sarsa"),
+        ("[ga]\nmutation_rate = 2.0", "ga.mutation_rate"),
+        ("colour = \"red\"", "colour"),
+    ] {
+        let file = write_file(dir.path(), text);
+        let out = run_experiment(&file, &dir.path().join("never"), &[]);
+        assert!(!out.status.success(), "{text}");
+        let err = stderr(&out);
+        assert!(
+            err.contains(field) && err.contains("small.toml"),
+            "{text}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    assert!(!dir.path().join("never").exists());
+    let file = write_file(dir.path(), SMALL);
+    let zero = run_experiment(&file, &dir.path().join("never"), &["--trials", "0"]);
+    assert!(stderr(&zero).contains("trials"), "{}", stderr(&zero));
+}

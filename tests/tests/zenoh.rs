@@ -1,0 +1,243 @@
+//! The evaluator pool over zenoh between real processes and real sessions
+//! on loopback: identical results to iceoryx2 and in-process, no lost work
+//! when a worker dies, and strangers without credentials kept out.
+
+use lander_tests::{
+    json_out, lines_in, signal, stderr, wait_until, without_wall_time, worker_children, Iox,
+};
+use serde_json::Value;
+use std::fs;
+use std::path::Path;
+use std::process::{Child, Stdio};
+
+/// A guided run that cannot land, so it flies exactly 3 × 150 generations.
+const LONG: &[&str] = &[
+    "--method",
+    "guided",
+    "--seed",
+    "5",
+    "--population",
+    "300",
+    "--max-generations",
+    "150",
+    "--max-restarts",
+    "2",
+    "--json",
+];
+
+/// A loopback endpoint no other test uses.
+fn endpoint(test: u16) -> String {
+    let port = 20_000 + (std::process::id() % 2_000) as u16 * 10 + test;
+    format!("tcp/127.0.0.1:{port}")
+}
+
+fn never_lands(dir: &Path) -> String {
+    let path = dir.join("never-lands.toml");
+    fs::write(&path, "[scoring]\nsafe_speed = 0.0\n").unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+fn start(iox: &Iox, out: &Path, args: &[&str]) -> Child {
+    iox.command("lander")
+        .args(["run", "--out", out.to_str().unwrap()])
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// The summary without wall time, and `generations.jsonl`.
+fn results(out: &std::process::Output, dir: &Path) -> (Value, Vec<u8>) {
+    assert!(out.status.success(), "{}", stderr(out));
+    (
+        without_wall_time(json_out(out)),
+        fs::read(dir.join("generations.jsonl")).unwrap(),
+    )
+}
+
+fn expected(iox: &Iox, args: &[&str]) -> (Value, Vec<u8>) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = start(iox, dir.path(), args).wait_with_output().unwrap();
+    results(&out, dir.path())
+}
+
+#[test]
+fn zenoh_matches_iceoryx2_and_in_process() {
+    let iox = Iox::new("zenoh_same");
+    let args = [
+        "--method",
+        "ga",
+        "--seed",
+        "3",
+        "--population",
+        "60",
+        "--max-generations",
+        "80",
+        "--json",
+    ];
+    let inproc = expected(&iox, &args);
+    let mut ipc = args.to_vec();
+    ipc.extend(["--workers", "2"]);
+    assert_eq!(expected(&iox, &ipc), inproc);
+    let ep = endpoint(0);
+    let mut net = args.to_vec();
+    net.extend(["--workers", "2", "--transport", "zenoh", "--listen", &ep]);
+    assert_eq!(expected(&iox, &net), inproc);
+}
+
+#[test]
+fn a_zenoh_worker_killed_mid_run_loses_no_work() {
+    let iox = Iox::new("zenoh_kill");
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = never_lands(dir.path());
+    let mut args = LONG.to_vec();
+    args.extend(["--config", &cfg]);
+    let calm = expected(&iox, &args);
+
+    let ep = endpoint(1);
+    args.extend(["--workers", "2", "--transport", "zenoh", "--listen", &ep]);
+    let child = start(&iox, dir.path(), &args);
+    let log = dir.path().join("generations.jsonl");
+    assert!(
+        wait_until(60, || lines_in(&log) >= 20),
+        "the run did not get going"
+    );
+    let workers = worker_children(child.id());
+    assert_eq!(workers.len(), 2);
+    signal(workers[0], "KILL");
+    let out = child.wait_with_output().unwrap();
+    let got = results(&out, dir.path());
+    assert_eq!(got.0, calm.0);
+    assert!(
+        got.1 == calm.1,
+        "generations.jsonl differs from the undisturbed run"
+    );
+    assert_eq!(got.0["generations"], 450);
+    assert!(stderr(&out).contains("exited"), "{}", stderr(&out));
+}
+
+#[test]
+fn a_worker_with_wrong_credentials_is_refused_and_the_run_is_unaffected() {
+    let iox = Iox::new("zenoh_auth");
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = never_lands(dir.path());
+    let mut args = LONG.to_vec();
+    args.extend(["--config", &cfg]);
+    let calm = expected(&iox, &args);
+
+    let users = dir.path().join("users.txt");
+    fs::write(&users, "worker:correct-horse\n").unwrap();
+    let good = dir.path().join("good.txt");
+    fs::write(&good, "worker:correct-horse\n").unwrap();
+    let bad = dir.path().join("bad.txt");
+    fs::write(&bad, "worker:battery-staple\n").unwrap();
+
+    let ep = endpoint(2);
+    let run_id = format!("auth{}", std::process::id());
+    let mut attached = args.clone();
+    attached.extend([
+        "--attach",
+        "--run-id",
+        &run_id,
+        "--transport",
+        "zenoh",
+        "--listen",
+        &ep,
+        "--users",
+        users.to_str().unwrap(),
+    ]);
+    let out_dir = dir.path().join("run");
+    let coordinator = start(&iox, &out_dir, &attached);
+    let worker = |creds: &Path| {
+        iox.command("lander-worker")
+            .args(["--run", &run_id, "--transport", "zenoh", "--connect", &ep])
+            .args(["--credentials", creds.to_str().unwrap()])
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let stranger = worker(&bad);
+    let member = worker(&good);
+    let out = coordinator.wait_with_output().unwrap();
+    let got = results(&out, &out_dir);
+    assert_eq!(got.0, calm.0);
+    assert!(got.1 == calm.1);
+
+    let member = member.wait_with_output().unwrap();
+    assert!(member.status.success(), "{}", stderr(&member));
+    assert!(
+        stderr(&member).contains("serving run"),
+        "{}",
+        stderr(&member)
+    );
+    signal(stranger.id(), "TERM");
+    let stranger = stranger.wait_with_output().unwrap();
+    let said = stderr(&stranger);
+    assert!(!said.contains("serving run"), "the stranger joined: {said}");
+    assert!(said.contains("cannot reach a coordinator"), "{said}");
+}
+
+#[test]
+fn listening_beyond_loopback_without_authentication_is_warned_about() {
+    let iox = Iox::new("zenoh_warn");
+    let dir = tempfile::tempdir().unwrap();
+    let port = 20_000 + (std::process::id() % 2_000) as u16 * 10 + 3;
+    let listen = format!("tcp/0.0.0.0:{port}");
+    let out = iox.lander(&[
+        "run",
+        "--method",
+        "guided",
+        "--population",
+        "20",
+        "--max-generations",
+        "3",
+        "--max-restarts",
+        "0",
+        "--json",
+        "--workers",
+        "1",
+        "--transport",
+        "zenoh",
+        "--listen",
+        &listen,
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("without authentication"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn bad_zenoh_options_are_refused() {
+    let iox = Iox::new("zenoh_bad");
+    let out = iox
+        .command("lander-worker")
+        .args(["--run", "x", "--transport", "zenoh"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("--connect"), "{}", stderr(&out));
+    let dir = tempfile::tempdir().unwrap();
+    let missing = iox.lander(&[
+        "run",
+        "--workers",
+        "1",
+        "--transport",
+        "zenoh",
+        "--users",
+        "/nonexistent/users.txt",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(!missing.status.success());
+    assert!(
+        stderr(&missing).contains("/nonexistent/users.txt"),
+        "{}",
+        stderr(&missing)
+    );
+}

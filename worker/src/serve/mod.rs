@@ -1,0 +1,69 @@
+//! The worker process's loop, over either transport: [`iceoryx`] for a
+//! coordinator on this host, [`zenoh`] for one on any host. Both answer a
+//! job the same way, with [`answer`].
+
+pub mod iceoryx;
+pub mod zenoh;
+
+use crate::evaluate::run_job;
+use crate::learn::run_training;
+use lander_protocol::wire::{
+    self, Job, JobHeader, ResultHeader, Status, WireError, WireGene, PROTOCOL_VERSION,
+};
+use std::time::Instant;
+
+pub use iceoryx::serve;
+
+/// Why a worker stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Exit {
+    /// The coordinator said the run is over.
+    RunFinished,
+    /// The coordinator's node is gone.
+    CoordinatorGone,
+    /// SIGINT or SIGTERM.
+    Signal,
+}
+
+/// What a worker tells its user.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Note {
+    /// Progress: waiting, serving.
+    Info,
+    /// Something refused; always worth showing.
+    Warning,
+}
+
+/// Runs one job and says how it went: the result's header and body (the
+/// encoded result, or the reason for a refusal).
+pub fn answer(
+    header: &JobHeader,
+    genes: &[WireGene],
+    id: u64,
+    say: &dyn Fn(Note, &str),
+) -> (ResultHeader, Vec<u8>) {
+    let started = Instant::now();
+    let (status, body) = match Job::from_wire(header, genes) {
+        Ok(Job::Evaluate(job)) => (Status::Done, run_job(job).encode()),
+        Ok(Job::Train(job)) => (Status::Done, wire::encode(&run_training(&job))),
+        Err(e) => {
+            say(
+                Note::Warning,
+                &format!("refusing job {}: {e}", header.job_id),
+            );
+            let status = match e {
+                WireError::Version { .. } => Status::WrongVersion,
+                _ => Status::BadJob,
+            };
+            (status, e.to_string().into_bytes())
+        }
+    };
+    let result = ResultHeader {
+        version: PROTOCOL_VERSION,
+        status: status as u32,
+        job_id: header.job_id,
+        worker_id: id,
+        compute_ns: started.elapsed().as_nanos() as u64,
+    };
+    (result, body)
+}

@@ -1,0 +1,165 @@
+//! Serving over zenoh: connect to the coordinator, declare this worker's
+//! job queryable and liveliness token, and answer queries until the run
+//! ends, the coordinator goes, or a signal arrives. Every frame is decoded
+//! with the envelope's checks; a bad one is refused, counted and logged.
+
+use super::{answer, Exit, Note};
+use lander_protocol::envelope::{decode_job, encode_result};
+use lander_protocol::net::{self, worker_config, NetError, NetOptions, RunKeys};
+use lander_protocol::wire::PROTOCOL_VERSION;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+use zenoh::query::Query;
+use zenoh::sample::{Sample, SampleKind};
+use zenoh::{Session, Wait};
+
+/// How long the worker waits for a job before looking at its flags.
+const POLL: Duration = Duration::from_millis(200);
+
+/// Serves run `run` as worker `id` until it ends; `stop` is raised by
+/// SIGINT or SIGTERM.
+pub fn serve(
+    run: &str,
+    id: u64,
+    options: &NetOptions,
+    stop: &AtomicBool,
+    say: &dyn Fn(Note, &str),
+) -> Result<Exit, NetError> {
+    let Some(session) = connect(options, stop, say)? else {
+        return Ok(Exit::Signal);
+    };
+    let exit = serve_session(&session, run, id, stop, say);
+    let _ = session.close().wait();
+    exit
+}
+
+/// Opens the session, retrying while the coordinator is not there yet.
+fn connect(
+    options: &NetOptions,
+    stop: &AtomicBool,
+    say: &dyn Fn(Note, &str),
+) -> Result<Option<Session>, NetError> {
+    let config = worker_config(options)?;
+    let mut told = false;
+    loop {
+        if stop.load(Ordering::Relaxed) {
+            return Ok(None);
+        }
+        match zenoh::open(config.clone()).wait() {
+            Ok(session) => return Ok(Some(session)),
+            Err(e) => {
+                if !told {
+                    say(
+                        Note::Warning,
+                        &format!(
+                            "cannot reach a coordinator at {}: {e}; retrying \
+                             (is it running, and are the credentials right?)",
+                            options.connect.join(", ")
+                        ),
+                    );
+                    told = true;
+                }
+                std::thread::sleep(Duration::from_millis(500));
+            }
+        }
+    }
+}
+
+fn serve_session(
+    session: &Session,
+    run: &str,
+    id: u64,
+    stop: &AtomicBool,
+    say: &dyn Fn(Note, &str),
+) -> Result<Exit, NetError> {
+    let keys = RunKeys::new(run);
+    let leave = Arc::new(AtomicBool::new(false));
+    let flag = leave.clone();
+    let _leave = session
+        .declare_subscriber(keys.leave(id))
+        .callback(move |_: Sample| flag.store(true, Ordering::Relaxed))
+        .wait()
+        .map_err(net::fail("subscribing to the leave key"))?;
+    let (seen, gone) = (
+        Arc::new(AtomicBool::new(false)),
+        Arc::new(AtomicBool::new(false)),
+    );
+    let (seen2, gone2) = (seen.clone(), gone.clone());
+    let _coordinator = session
+        .liveliness()
+        .declare_subscriber(keys.coordinator())
+        .history(true)
+        .callback(move |s: Sample| match s.kind() {
+            SampleKind::Put => seen2.store(true, Ordering::Relaxed),
+            SampleKind::Delete => gone2.store(true, Ordering::Relaxed),
+        })
+        .wait()
+        .map_err(net::fail("watching the coordinator"))?;
+    let queryable = session
+        .declare_queryable(keys.jobs(id))
+        .complete(true)
+        .wait()
+        .map_err(net::fail("declaring the job queryable"))?;
+    // Declared last: once the coordinator sees the token, jobs reach us.
+    let _token = session
+        .liveliness()
+        .declare_token(keys.alive(id, PROTOCOL_VERSION, std::process::id()))
+        .wait()
+        .map_err(net::fail("declaring the liveliness token"))?;
+    say(
+        Note::Info,
+        &format!("serving run {run} as worker {id:016x} over zenoh"),
+    );
+    let mut rejected = 0u64;
+    loop {
+        if stop.load(Ordering::Relaxed) {
+            return Ok(Exit::Signal);
+        }
+        if leave.load(Ordering::Relaxed) {
+            return Ok(Exit::RunFinished);
+        }
+        if seen.load(Ordering::Relaxed) && gone.load(Ordering::Relaxed) {
+            return Ok(Exit::CoordinatorGone);
+        }
+        match queryable.recv_timeout(POLL) {
+            Ok(Some(query)) => serve_query(&query, id, &mut rejected, say)?,
+            Ok(None) => {}
+            Err(_) => return Ok(Exit::CoordinatorGone),
+        }
+    }
+}
+
+/// Answers one query; a frame that fails the envelope's checks gets an
+/// error reply and is counted.
+fn serve_query(
+    query: &Query,
+    id: u64,
+    rejected: &mut u64,
+    say: &dyn Fn(Note, &str),
+) -> Result<(), NetError> {
+    let frame = query
+        .payload()
+        .map(|p| p.to_bytes().into_owned())
+        .unwrap_or_default();
+    match decode_job(&frame) {
+        Ok((header, genes)) => {
+            let (result, body) = answer(&header, &genes, id, say);
+            query
+                .reply(query.key_expr().clone(), encode_result(&result, &body))
+                .wait()
+                .map_err(net::fail("replying"))
+        }
+        Err(e) => {
+            *rejected += 1;
+            say(
+                Note::Warning,
+                &format!("rejected frame #{rejected} ({} bytes): {e}", frame.len()),
+            );
+            query
+                .reply_err(e.to_string())
+                .wait()
+                .map_err(net::fail("replying with an error"))
+        }
+    }
+}
