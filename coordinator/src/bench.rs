@@ -6,7 +6,7 @@
 use crate::config::RunConfig;
 use crate::evaluator::{Batch, EvalError, Evaluator, InProcess};
 use crate::ga::{random_population, Genome};
-use crate::pool::{ChunkTiming, IpcPool};
+use crate::pool::{ChunkTiming, IpcPool, ZenohPool};
 use crate::trial::env;
 use lander_protocol::stream::streams;
 use lander_protocol::{Evaluation, Method, StreamKey};
@@ -56,6 +56,7 @@ pub struct Mode {
 pub enum ModeEvaluator {
     InProcess(InProcess),
     Iceoryx2(Box<IpcPool>),
+    Zenoh(Box<ZenohPool>),
 }
 
 impl ModeEvaluator {
@@ -63,6 +64,7 @@ impl ModeEvaluator {
         match self {
             ModeEvaluator::InProcess(e) => e,
             ModeEvaluator::Iceoryx2(e) => e.as_mut(),
+            ModeEvaluator::Zenoh(e) => e.as_mut(),
         }
     }
 
@@ -71,6 +73,7 @@ impl ModeEvaluator {
         match self {
             ModeEvaluator::InProcess(e) => e.threads(),
             ModeEvaluator::Iceoryx2(e) => e.workers(),
+            ModeEvaluator::Zenoh(e) => e.workers(),
         }
     }
 }
@@ -91,8 +94,10 @@ pub struct Tally {
 impl Mode {
     pub fn new(name: impl Into<String>, evaluator: ModeEvaluator) -> Mode {
         let mut evaluator = evaluator;
-        if let ModeEvaluator::Iceoryx2(pool) = &mut evaluator {
-            pool.record_timings();
+        match &mut evaluator {
+            ModeEvaluator::Iceoryx2(pool) => pool.record_timings(),
+            ModeEvaluator::Zenoh(pool) => pool.record_timings(),
+            ModeEvaluator::InProcess(_) => {}
         }
         Mode {
             name: name.into(),
@@ -125,8 +130,10 @@ impl Mode {
         self.tally.genomes += evaluations.len() as u64;
         self.tally.ticks += evaluations.iter().map(|e| e.simulated_ticks).sum::<u64>();
         hash_results(&mut self.hasher, &evaluations, &genomes);
-        if let ModeEvaluator::Iceoryx2(pool) = &mut self.evaluator {
-            self.tally.timings.extend(pool.take_timings());
+        match &mut self.evaluator {
+            ModeEvaluator::Iceoryx2(pool) => self.tally.timings.extend(pool.take_timings()),
+            ModeEvaluator::Zenoh(pool) => self.tally.timings.extend(pool.take_timings()),
+            ModeEvaluator::InProcess(_) => {}
         }
         Ok(())
     }

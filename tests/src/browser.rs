@@ -212,7 +212,6 @@ impl Page {
             "--window-size=1280,1024",
         ])
         .arg(format!("--user-data-dir={}", profile.path().display()))
-        .arg("about:blank")
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(stderr)

@@ -128,7 +128,10 @@ fn a_small_experiment_writes_every_file_and_they_agree() {
     for r in rows.iter().filter(|r| r["method"] != "qlearning") {
         let flown = lines
             .iter()
-            .filter(|l| l["method"] == r["method"].as_str() && l["trial"].to_string() == r["trial"])
+            .filter(|l| {
+                l["method"] == r["method"].as_str()
+                    && l["trial"] == r["trial"].parse::<u64>().unwrap()
+            })
             .count();
         assert_eq!(flown.to_string(), r["generations"], "{r:?}");
         assert!(r["episodes"].is_empty());
@@ -294,4 +297,40 @@ fn bad_experiment_files_are_named() {
     let file = write_file(dir.path(), SMALL);
     let zero = run_experiment(&file, &dir.path().join("never"), &["--trials", "0"]);
     assert!(stderr(&zero).contains("trials"), "{}", stderr(&zero));
+}
+
+#[test]
+fn the_report_loads_in_a_browser_with_its_plots_and_a_running_replay() {
+    use lander_tests::browser;
+    use std::time::Duration;
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_file(dir.path(), SMALL);
+    let out = dir.path().join("out");
+    let run = run_experiment(&file, &out, &[]);
+    assert!(run.status.success(), "{}", stderr(&run));
+
+    let page = browser::open(&out.join("report.html")).expect("chromium opens report.html");
+    page.wait_for(
+        "document.querySelectorAll('canvas').length > 0",
+        Duration::from_secs(20),
+    )
+    .expect("the replay's canvas appears");
+    // The replay plays by itself: its canvas gets drawn on.
+    let mut painted = false;
+    for _ in 0..100 {
+        if page
+            .canvas_is_painted("canvas")
+            .expect("the canvas can be read")
+        {
+            painted = true;
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    assert!(painted, "the replay canvas stayed blank");
+    let (total, decoded) = page.images_decoded().expect("images can be counted");
+    assert_eq!(total, 3, "Figure 3, Figure 4 and the learning curve");
+    assert_eq!(decoded, total, "undecoded: {:?}", page.undecoded_images());
+    let errors = page.console_errors();
+    assert!(errors.is_empty(), "console errors: {errors:?}");
 }

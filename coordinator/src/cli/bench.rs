@@ -7,7 +7,9 @@ use clap::Args;
 use lander_coordinator::bench::{Mode, ModeEvaluator, ModeReport, Workload};
 use lander_coordinator::config::{Approach, RunConfig};
 use lander_coordinator::evaluator::InProcess;
-use lander_coordinator::pool::IpcPool;
+use lander_coordinator::pool::zenoh::Zenoh;
+use lander_coordinator::pool::{IpcPool, Pool};
+use lander_protocol::net::NetOptions;
 use lander_protocol::iox::MAX_WORKERS;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -34,9 +36,12 @@ pub struct BenchArgs {
     rounds: usize,
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Transports to compare, comma-separated: inproc, iceoryx2.
+    /// Transports to compare, comma-separated: inproc, iceoryx2, zenoh.
     #[arg(long, value_delimiter = ',', default_value = "inproc,iceoryx2")]
     transports: Vec<String>,
+    /// zenoh mode: where the coordinator listens (loopback).
+    #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7448")]
+    listen: String,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -56,6 +61,8 @@ struct Ratios {
     scaling: Option<f64>,
     /// iceoryx2 with N workers over in-process with N threads.
     ipc_efficiency: Option<f64>,
+    /// zenoh with N workers over in-process with N threads.
+    zenoh_efficiency: Option<f64>,
 }
 
 #[derive(Serialize)]
@@ -108,10 +115,26 @@ fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
                     ));
                 }
             }
-            "zenoh" => anyhow::bail!("--transports: the zenoh transport is not built yet"),
-            other => {
-                anyhow::bail!("--transports: unknown transport {other:?} (known: inproc, iceoryx2)")
+            "zenoh" => {
+                let id = format!("bench{:08x}", rand::random::<u32>());
+                let opts = pool_options(id, n, Duration::from_secs(60))?;
+                let options = NetOptions {
+                    listen: vec![args.listen.clone()],
+                    ..NetOptions::default()
+                };
+                let transport = Zenoh::open(&opts.run_id, &options)?;
+                let say = Box::new(|m: &str| eprintln!("lander: {m}"));
+                let mut pool = Pool::with_transport(transport, opts, say)?;
+                pool.wait_for_workers(n, Duration::from_secs(20))
+                    .context("waiting for the benchmark's zenoh workers")?;
+                modes.push(Mode::new(
+                    format!("zenoh-{n}"),
+                    ModeEvaluator::Zenoh(Box::new(pool)),
+                ));
             }
+            other => anyhow::bail!(
+                "--transports: unknown transport {other:?} (known: inproc, iceoryx2, zenoh)"
+            ),
         }
     }
     Ok(modes)
@@ -175,6 +198,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     let ratios = Ratios {
         scaling: ratio(rate(format!("iceoryx2-{n}")), rate("iceoryx2-1".into())).filter(|_| n > 1),
         ipc_efficiency: ratio(rate(format!("iceoryx2-{n}")), rate(format!("inproc-{n}"))),
+        zenoh_efficiency: ratio(rate(format!("zenoh-{n}")), rate(format!("inproc-{n}"))),
     };
     let hashes_agree = modes.iter().all(|m| m.tally.consistent)
         && reports.windows(2).all(|w| w[0].hash == w[1].hash);
@@ -233,9 +257,11 @@ fn print_table(r: &Report) {
     }
     let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}×"));
     println!(
-        "scaling (iceoryx2-{n} / iceoryx2-1): {}   ipc efficiency (iceoryx2-{n} / inproc-{n}): {}   results agree: {}",
+        "scaling (iceoryx2-{n} / iceoryx2-1): {}   ipc efficiency (iceoryx2-{n} / inproc-{n}): {}   \
+         zenoh efficiency (zenoh-{n} / inproc-{n}): {}   results agree: {}",
         pct(r.ratios.scaling),
         pct(r.ratios.ipc_efficiency),
+        pct(r.ratios.zenoh_efficiency),
         r.hashes_agree,
         n = r.workers
     );

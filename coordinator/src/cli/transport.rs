@@ -79,6 +79,10 @@ impl TransportArgs {
                 self.run_id.is_none(),
                 "--run-id needs --workers or --attach"
             );
+            anyhow::ensure!(
+                self.transport == Transport::Iceoryx2,
+                "--transport zenoh needs --workers N or --attach; without them evaluation is in-process"
+            );
             return Ok(None);
         }
         anyhow::ensure!(
