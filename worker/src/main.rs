@@ -27,7 +27,7 @@ use std::sync::Arc;
         \x20       --users users.txt                   # on the coordinator's host\n\
         \x20   lander-worker --run demo --transport zenoh --connect tcp/10.0.0.5:7447 \\\n\
         \x20       --credentials me.txt                # on each worker host\n\n\
-        See deploy/README.md for TLS and systemd."
+        TLS settings go in a zenoh JSON5 file given with --zenoh-config."
 )]
 struct Args {
     /// The run to serve, as printed by `lander run --attach`.
