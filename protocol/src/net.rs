@@ -76,6 +76,36 @@ fn base(options: &NetOptions, mode: &str) -> Result<Config, NetError> {
     Ok(cfg)
 }
 
+/// `ZENOH_RUNTIME` for zenoh's I/O on one thread. zenoh 1.10's TLS link
+/// reads and writes one rustls stream from two threads at once
+/// (eclipse-zenoh/zenoh#2557), which corrupts it within seconds under
+/// lander's traffic; on one thread the two never overlap.
+pub const TLS_SAFE_RUNTIME: &str = "(rx: (handover: app), tx: (handover: app), \
+     acc: (handover: app), net: (handover: app), app: (worker_threads: 1))";
+
+/// What to tell the user when [`guard_tls`] acted.
+pub const TLS_NOTE: &str = "TLS: running zenoh's I/O on one thread \
+     (eclipse-zenoh/zenoh#2557; set ZENOH_RUNTIME to override)";
+
+/// Whether `cfg` opens TLS links: any listen or connect endpoint `tls/…`.
+pub fn uses_tls(cfg: &Config) -> bool {
+    ["listen/endpoints", "connect/endpoints"]
+        .iter()
+        .any(|key| cfg.get_json(key).is_ok_and(|v| v.contains("\"tls/")))
+}
+
+/// For a session with TLS links, sets [`TLS_SAFE_RUNTIME`] unless the user
+/// set `ZENOH_RUNTIME` already; true if it did. zenoh reads the variable
+/// once, when the process opens its first session, so this must run before
+/// that and while no other thread reads the environment.
+pub fn guard_tls(cfg: &Config) -> bool {
+    if !uses_tls(cfg) || std::env::var_os("ZENOH_RUNTIME").is_some() {
+        return false;
+    }
+    std::env::set_var("ZENOH_RUNTIME", TLS_SAFE_RUNTIME);
+    true
+}
+
 /// The coordinator: a peer that listens and checks workers' credentials.
 pub fn coordinator_config(options: &NetOptions) -> Result<Config, NetError> {
     let mut cfg = base(options, "peer")?;
@@ -223,6 +253,22 @@ mod tests {
             ..NetOptions::default()
         };
         assert_eq!(exposed(&options), ["tcp/0.0.0.0:7447", "tls/10.0.0.5:7447"]);
+    }
+
+    #[test]
+    fn tls_is_seen_in_either_direction_and_only_there() {
+        let with = |listen: &str, connect: &str| NetOptions {
+            listen: vec![listen.into()],
+            connect: vec![connect.into()],
+            ..NetOptions::default()
+        };
+        let tls = with("tls/127.0.0.1:7447", "tcp/10.0.0.5:7447");
+        assert!(uses_tls(&coordinator_config(&tls).unwrap()));
+        let tls = with("tcp/127.0.0.1:7447", "tls/10.0.0.5:7447");
+        assert!(uses_tls(&worker_config(&tls).unwrap()));
+        let plain = with("tcp/127.0.0.1:7447", "tcp/10.0.0.5:7447");
+        assert!(!uses_tls(&coordinator_config(&plain).unwrap()));
+        assert!(!uses_tls(&worker_config(&plain).unwrap()));
     }
 
     #[test]

@@ -27,7 +27,8 @@ use std::sync::Arc;
         \x20       --users users.txt                   # on the coordinator's host\n\
         \x20   lander-worker --run demo --transport zenoh --connect tcp/10.0.0.5:7447 \\\n\
         \x20       --credentials me.txt                # on each worker host\n\n\
-        TLS settings go in a zenoh JSON5 file given with --zenoh-config."
+        TLS settings go in a zenoh JSON5 file given with --zenoh-config; deploy/ in the \
+        source has examples, a script that starts N workers and systemd units."
 )]
 struct Args {
     /// The run to serve, as printed by `lander run --attach`.

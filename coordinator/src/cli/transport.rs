@@ -121,6 +121,9 @@ impl TransportArgs {
             ));
         }
         let transport = Zenoh::open(&opts.run_id, &options)?;
+        if transport.io_on_one_thread {
+            say(lander_protocol::net::TLS_NOTE);
+        }
         Ok(Box::new(Pool::with_transport(transport, opts, say)?))
     }
 }

@@ -43,6 +43,8 @@ pub struct Zenoh {
     bell: Sender<Event>,
     arrived: Vec<Arrival>,
     left: Vec<u64>,
+    /// Whether TLS put zenoh's I/O on one thread ([`net::guard_tls`]).
+    pub io_on_one_thread: bool,
     /// What spawned workers are told to connect to.
     worker_args: Vec<String>,
     // Dropping these would undeclare them.
@@ -55,6 +57,7 @@ impl Zenoh {
     /// the run's liveliness tokens.
     pub fn open(run_id: &str, options: &NetOptions) -> Result<Zenoh, EvalError> {
         let config = coordinator_config(options)?;
+        let io_on_one_thread = net::guard_tls(&config);
         let session = zenoh::open(config)
             .wait()
             .map_err(net::fail("opening the zenoh session"))?;
@@ -95,6 +98,7 @@ impl Zenoh {
             bell,
             arrived: Vec::new(),
             left: Vec::new(),
+            io_on_one_thread,
             worker_args,
             _tokens: tokens,
             _alive: alive,

@@ -41,6 +41,9 @@ fn connect(
     say: &dyn Fn(Note, &str),
 ) -> Result<Option<Session>, NetError> {
     let config = worker_config(options)?;
+    if net::guard_tls(&config) {
+        say(Note::Info, net::TLS_NOTE);
+    }
     let mut told = false;
     loop {
         if stop.load(Ordering::Relaxed) {

@@ -1,0 +1,158 @@
+#!/usr/bin/env bash
+# Starts N lander-worker processes on this host, serving one run of a
+# coordinator reached over zenoh, and waits for them.
+#
+#   start-workers.sh --run ID --connect ENDPOINT [-n N] [--credentials FILE]
+#                    [--zenoh-config FILE] [-- EXTRA-WORKER-FLAGS...]
+#
+# N defaults to the number of cores (nproc). The worker binary is
+# $LANDER_WORKER if set, else ../target/release/lander-worker beside this
+# script, else lander-worker on PATH. SIGTERM and SIGINT are passed on to
+# every worker (as SIGTERM); the script then waits for them all. It exits 0
+# when every worker exited cleanly (the run finished, the coordinator went
+# away, or a signal stopped them), 1 if any worker failed, 2 on bad usage.
+# Each worker's stderr is its own, already prefixed "lander-worker <id>:".
+set -euo pipefail
+
+me=$(basename "$0")
+if ((BASH_VERSINFO[0] < 5 || (BASH_VERSINFO[0] == 5 && BASH_VERSINFO[1] < 1))); then
+    echo "$me: error: needs bash 5.1 or newer (this is $BASH_VERSION)" >&2
+    exit 2
+fi
+
+usage() {
+    cat >&2 <<USAGE
+usage: $me --run ID --connect ENDPOINT [-n N] [--credentials FILE] [--zenoh-config FILE] [-- WORKER-FLAGS...]
+
+  --run ID              the run to serve, as printed by 'lander run --attach --run-id ID'
+  --connect ENDPOINT    the coordinator (or a zenoh router), e.g. tcp/10.0.0.5:7447 or tls/10.0.0.5:7447
+  -n N                  how many workers to start [default: nproc = $(nproc)]
+  --credentials FILE    a 'user:password' file, for a coordinator started with --users
+  --zenoh-config FILE   a zenoh JSON5 configuration, e.g. for TLS (deploy/zenoh/worker-tls.json5)
+  -- WORKER-FLAGS...    anything else is passed to every lander-worker (e.g. --quiet)
+
+The worker binary is \$LANDER_WORKER, else ../target/release/lander-worker beside
+this script, else lander-worker on PATH.
+USAGE
+}
+
+die_usage() {
+    echo "$me: error: $*" >&2
+    usage
+    exit 2
+}
+
+run="" connect="" n="" credentials="" zenoh_config=""
+extra=()
+while (($# > 0)); do
+    case "$1" in
+        --run | --connect | -n | --credentials | --zenoh-config)
+            (($# >= 2)) || die_usage "$1 needs a value"
+            case "$1" in
+                --run) run=$2 ;;
+                --connect) connect=$2 ;;
+                -n) n=$2 ;;
+                --credentials) credentials=$2 ;;
+                --zenoh-config) zenoh_config=$2 ;;
+            esac
+            shift 2
+            ;;
+        --run=* | --connect=* | --credentials=* | --zenoh-config=*)
+            value=${1#*=}
+            case "$1" in
+                --run=*) run=$value ;;
+                --connect=*) connect=$value ;;
+                --credentials=*) credentials=$value ;;
+                --zenoh-config=*) zenoh_config=$value ;;
+            esac
+            shift
+            ;;
+        -h | --help)
+            usage
+            exit 0
+            ;;
+        --)
+            shift
+            extra=("$@")
+            break
+            ;;
+        *) die_usage "unknown argument '$1'" ;;
+    esac
+done
+
+[[ -n $run ]] || die_usage "--run ID is required"
+[[ -n $connect ]] || die_usage "--connect ENDPOINT is required"
+if [[ -z $n ]]; then
+    n=$(nproc)
+fi
+[[ $n =~ ^[1-9][0-9]*$ ]] || die_usage "-n must be a positive whole number (got '$n')"
+for file in "$credentials" "$zenoh_config"; do
+    if [[ -n $file && ! -r $file ]]; then
+        die_usage "cannot read '$file'"
+    fi
+done
+
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+if [[ -n ${LANDER_WORKER:-} ]]; then
+    worker=$LANDER_WORKER
+elif [[ -x $here/../target/release/lander-worker ]]; then
+    worker=$here/../target/release/lander-worker
+elif worker=$(command -v lander-worker); then
+    :
+else
+    echo "$me: error: no lander-worker: set LANDER_WORKER, build it with 'cargo build --release', or put it on PATH" >&2
+    exit 2
+fi
+[[ -x $worker ]] || {
+    echo "$me: error: '$worker' is not an executable" >&2
+    exit 2
+}
+
+args=(--run "$run" --transport zenoh --connect "$connect")
+[[ -z $credentials ]] || args+=(--credentials "$credentials")
+[[ -z $zenoh_config ]] || args+=(--zenoh-config "$zenoh_config")
+args+=("${extra[@]}")
+
+pids=()
+stop() {
+    echo "$me: stopping ${#pids[@]} worker(s)" >&2
+    # A worker already gone is fine.
+    kill -TERM "${pids[@]}" 2>/dev/null || true
+}
+trap stop TERM INT
+
+for ((i = 1; i <= n; i++)); do
+    "$worker" "${args[@]}" &
+    pids+=($!)
+done
+echo "$me: started $n worker(s) of $worker for run $run at $connect: ${pids[*]}" >&2
+
+# wait -n returns as each worker ends; a trapped signal interrupts it with
+# nothing in $ended, and we go back to waiting.
+failed=0
+running=("${pids[@]}")
+while ((${#running[@]} > 0)); do
+    ended=""
+    status=0
+    wait -n -p ended "${running[@]}" || status=$?
+    if [[ -z ${ended:-} ]]; then
+        ((status > 128)) && continue
+        echo "$me: error: lost track of the workers (wait: $status)" >&2
+        exit 1
+    fi
+    still=()
+    for pid in "${running[@]}"; do
+        [[ $pid == "$ended" ]] || still+=("$pid")
+    done
+    running=("${still[@]}")
+    if ((status != 0)); then
+        echo "$me: worker $ended failed (exit status $status)" >&2
+        failed=$((failed + 1))
+    fi
+done
+
+if ((failed > 0)); then
+    echo "$me: $failed of $n worker(s) failed" >&2
+    exit 1
+fi
+echo "$me: all $n worker(s) exited cleanly" >&2
