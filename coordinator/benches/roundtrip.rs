@@ -34,6 +34,7 @@ fn worker_pool() -> IpcPool {
         chunks_per_worker: 1,
         deadline: Duration::from_secs(30),
         max_respawns: 0,
+        pin: true,
     };
     let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("{m}"))).expect("pool starts");
     pool.wait_for_workers(1, Duration::from_secs(20))

@@ -7,9 +7,11 @@
 //! - [`reference`]: a deliberately plain simulation, the baseline that the
 //!   fast one must match bit for bit.
 //! - [`serve`]: the worker process's loop, serving jobs over iceoryx2.
+//! - [`cpu`]: pinning to a CPU and the batch scheduling class.
 //!
-//! All but `serve` is pure: no locks, no I/O, no allocation in the flight loop.
+//! All but `serve` and `cpu` is pure: no locks, no I/O, no allocation in the flight loop.
 
+pub mod cpu;
 pub mod evaluate;
 pub mod guide;
 pub mod learn;

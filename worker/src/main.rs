@@ -2,6 +2,7 @@
 
 use clap::{Parser, ValueEnum};
 use lander_protocol::net::NetOptions;
+use lander_worker::cpu;
 use lander_worker::serve::{self, Exit, Note};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -40,6 +41,10 @@ struct Args {
     /// Print errors only.
     #[arg(long)]
     quiet: bool,
+    /// Run on this CPU only (`lander run --workers N` pins its workers to
+    /// one CPU each when N is at most the number of CPUs).
+    #[arg(long, value_name = "N")]
+    cpu: Option<usize>,
     /// iceoryx2 for a coordinator on this host, zenoh for one anywhere.
     #[arg(long, value_enum, default_value_t = Transport::Iceoryx2)]
     transport: Transport,
@@ -67,6 +72,9 @@ fn parse_hex(s: &str) -> Result<u64, String> {
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    // Before any thread starts, so that every thread inherits both.
+    let placed = args.cpu.map(cpu::pin_to).transpose();
+    let batch = cpu::run_as_batch_job();
     if args.run.is_empty()
         || !args
             .run
@@ -81,6 +89,16 @@ fn main() -> ExitCode {
     }
     let id = args.id.unwrap_or_else(rand::random);
     let say = |msg: &str| eprintln!("lander-worker {id:016x}: {msg}");
+    if let (Err(e), Some(n)) = (placed, args.cpu) {
+        say(&format!(
+            "warning: cannot pin to CPU {n} (--cpu): {e}; running anywhere"
+        ));
+    }
+    if let Err(e) = batch {
+        say(&format!(
+            "warning: cannot use the batch scheduling class: {e}"
+        ));
+    }
     let note = |kind: Note, msg: &str| {
         if kind == Note::Warning || !args.quiet {
             say(msg)

@@ -50,6 +50,9 @@ pub struct BenchArgs {
     /// in-process evaluation.
     #[arg(long)]
     stress: bool,
+    /// Let the workers run on any CPU instead of one CPU each.
+    #[arg(long)]
+    no_pin: bool,
     /// With --stress: worker kills per second, on average.
     #[arg(long, value_name = "PER_S", default_value_t = 2.0)]
     kill_rate: f64,
@@ -105,7 +108,8 @@ fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
             "iceoryx2" => {
                 for w in if n > 1 { vec![1, n] } else { vec![1] } {
                     let id = format!("bench{:08x}", rand::random::<u32>());
-                    let opts = pool_options(id, w, Duration::from_secs(60))?;
+                    let mut opts = pool_options(id, w, Duration::from_secs(60))?;
+                    opts.pin = !args.no_pin;
                     let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("lander: {m}")))?;
                     pool.wait_for_workers(w, Duration::from_secs(20))
                         .context("waiting for the benchmark's workers")?;
@@ -117,7 +121,8 @@ fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
             }
             "zenoh" => {
                 let id = format!("bench{:08x}", rand::random::<u32>());
-                let opts = pool_options(id, n, Duration::from_secs(60))?;
+                let mut opts = pool_options(id, n, Duration::from_secs(60))?;
+                opts.pin = !args.no_pin;
                 let options = NetOptions {
                     listen: vec![args.listen.clone()],
                     ..NetOptions::default()

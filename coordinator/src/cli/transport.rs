@@ -50,6 +50,11 @@ pub struct TransportArgs {
     /// them may join.
     #[arg(long, value_name = "FILE")]
     users: Option<PathBuf>,
+    /// Let spawned workers run on any CPU. By default each of N workers is
+    /// pinned to a CPU of its own when there are at least N; leave them
+    /// free when other programs need the same CPUs.
+    #[arg(long)]
+    no_pin: bool,
 }
 
 impl TransportArgs {
@@ -93,7 +98,8 @@ impl TransportArgs {
             Some(id) => check_run_id(id)?,
             None => format!("{:08x}", rand::random::<u32>()),
         };
-        let opts = pool_options(run_id, self.workers, Duration::from_secs_f64(self.deadline))?;
+        let mut opts = pool_options(run_id, self.workers, Duration::from_secs_f64(self.deadline))?;
+        opts.pin = !self.no_pin;
         let bar = bar.clone();
         let say = Box::new(move |msg: &str| bar.suspend(|| eprintln!("lander: {msg}")));
         if self.attach {
@@ -145,6 +151,7 @@ pub fn pool_options(
         chunks_per_worker: 4,
         deadline,
         max_respawns: 3 * workers.max(1),
+        pin: true,
     })
 }
 

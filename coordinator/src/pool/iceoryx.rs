@@ -16,7 +16,7 @@ use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 /// How often dead nodes are looked for.
-const REAP_EVERY: Duration = Duration::from_millis(100);
+const REAP_EVERY: Duration = Duration::from_millis(500);
 
 /// The coordinator's iceoryx2 node and the run's shared services.
 pub struct Iceoryx {
@@ -138,6 +138,8 @@ pub struct Link {
     jobs: Notifier<ipc::Service>,
     /// Oldest first; the worker answers in order.
     busy: VecDeque<InFlight>,
+    /// Requests sent since the worker was last notified.
+    unannounced: bool,
     broken: bool,
 }
 
@@ -164,6 +166,7 @@ impl Link {
             client,
             jobs,
             busy: VecDeque::new(),
+            unannounced: false,
             broken: false,
         })
     }
@@ -220,15 +223,13 @@ impl WorkerLink for Link {
                     detail: "the worker's server is gone".into(),
                 });
             }
-            self.jobs
-                .notify_with_custom_event_id(EventId::new(JOB_EVENT))
-                .map_err(iox::fail("notifying the worker"))?;
             Ok(pending)
         })();
         match sent {
             Ok(pending) => {
                 let now = Instant::now();
                 let queued = !self.busy.is_empty();
+                self.unannounced = true;
                 self.busy.push_back(InFlight {
                     job_id: header.job_id,
                     job,
@@ -244,6 +245,23 @@ impl WorkerLink for Link {
                 Err(e.to_string())
             }
         }
+    }
+
+    /// One event for all the requests sent since the last: the worker
+    /// drains its queue on waking, and each further event would only wake
+    /// it again for nothing.
+    fn notify(&mut self) -> Result<(), String> {
+        if !std::mem::take(&mut self.unannounced) {
+            return Ok(());
+        }
+        let notified = self
+            .jobs
+            .notify_with_custom_event_id(EventId::new(JOB_EVENT))
+            .map_err(|e| iox::fail("notifying the worker")(e).to_string());
+        if notified.is_err() {
+            self.broken = true;
+        }
+        notified.map(|_| ())
     }
 
     /// Collects the answers that arrived, checked against the jobs they

@@ -2,9 +2,10 @@
 //! survives their failures, over any [`Transport`]: iceoryx2 on one host
 //! ([`iceoryx`]), zenoh across hosts ([`zenoh`]).
 //!
-//! Each generation is split into chunks, several per worker, and the next
-//! chunk goes to whichever worker is idle. The pool sleeps on its `wake`
-//! event between results, never spinning. A chunk whose worker dies (its
+//! Each generation is split into chunks, several per worker, queued
+//! round-robin up to [`DEPTH`] per worker; any left over go to whichever
+//! worker has room first. The pool sleeps on its `wake` event between
+//! results, never spinning. A chunk whose worker dies (its
 //! process exits, its node is found dead, or its server disconnects) or
 //! misses its deadline goes back in the queue; a late duplicate is dropped
 //! by job id. Results are placed by chunk, so they are identical however the
@@ -30,9 +31,10 @@ use std::time::{Duration, Instant};
 /// How long the pool sleeps at most before looking after its workers.
 const SLICE: Duration = Duration::from_millis(25);
 
-/// Chunks queued at a worker at once, so it never waits for a round trip
-/// between one chunk and the next.
-pub const DEPTH: usize = 2;
+/// Chunks queued at a worker at once. With four chunks per worker, a
+/// generation is handed out whole as it starts, round-robin, and the
+/// coordinator need not wake until a worker has answered all it holds.
+pub const DEPTH: usize = 4;
 
 /// A worker that announced itself.
 #[derive(Clone, Copy, Debug)]
@@ -88,7 +90,8 @@ pub trait WorkerLink {
     fn deadline(&self) -> Option<Instant>;
     /// Gives up on the jobs in flight, returning them.
     fn abandon(&mut self) -> Vec<usize>;
-    /// Sends `genes` under `header` as the pool's job `job`.
+    /// Sends `genes` under `header` as the pool's job `job`; the worker
+    /// may not look until [`WorkerLink::notify`].
     fn send(
         &mut self,
         header: JobHeader,
@@ -96,6 +99,11 @@ pub trait WorkerLink {
         job: usize,
         deadline: Option<Duration>,
     ) -> Result<(), String>;
+    /// Tells the worker about the jobs sent since the last call, where the
+    /// transport needs telling.
+    fn notify(&mut self) -> Result<(), String> {
+        Ok(())
+    }
     /// Collects the answers that arrived, checked against the jobs they
     /// answer but not yet decoded. An answer that fails its checks breaks
     /// the link and is reported beside the good ones; the jobs still in
@@ -126,6 +134,9 @@ pub struct PoolOptions {
     pub deadline: Duration,
     /// Spawned workers replaced after dying, at most.
     pub max_respawns: usize,
+    /// Pin each spawned worker to a CPU of its own, when there are at
+    /// least as many CPUs as workers ([`lander_worker::cpu`] says why).
+    pub pin: bool,
 }
 
 /// Messages for the user, such as "waiting for workers".
@@ -169,6 +180,7 @@ impl<T: Transport> Pool<T> {
                 opts.run_id.clone(),
                 transport.worker_args(),
                 opts.max_respawns,
+                cpus_for(&opts),
             ),
             transport,
             links: Vec::new(),
@@ -329,6 +341,16 @@ impl<T: Transport> Pool<T> {
     }
 }
 
+/// The CPUs to pin `opts.spawn` workers to: one each, or none at all when
+/// pinning is off or there are fewer CPUs than workers.
+fn cpus_for(opts: &PoolOptions) -> Vec<usize> {
+    let cpus = lander_worker::cpu::allowed_cpus();
+    if !opts.pin || opts.spawn == 0 || opts.spawn > cpus.len() {
+        return Vec::new();
+    }
+    cpus[..opts.spawn].to_vec()
+}
+
 /// Splits `n` genomes into about `parts` contiguous chunks.
 fn chunks(n: usize, parts: usize) -> Vec<Range<usize>> {
     let parts = parts.clamp(1, n.max(1));
@@ -404,19 +426,7 @@ impl<T: Transport> Pool<T> {
                 break;
             }
             todo.retain(|&j| done[j].is_none());
-            for link in &mut self.links {
-                while link.has_room() {
-                    let Some(job) = todo.pop_front() else { break };
-                    let mut header = jobs[job].header;
-                    header.job_id = self.next_job;
-                    self.next_job += 1;
-                    let deadline = jobs[job].timed.then_some(self.opts.deadline);
-                    if let Err(e) = link.send(header, &jobs[job].genes, job, deadline) {
-                        (self.say)(&format!("cannot send to worker {:016x}: {e}", link.id()));
-                        todo.push_front(job);
-                    }
-                }
-            }
+            self.dispatch(jobs, &mut todo);
             self.drop_links(&mut todo, |l| l.is_broken(), "disconnected");
             if self.links.is_empty() && self.children.is_empty() && self.opts.spawn > 0 {
                 return Err(EvalError::NoWorkers {
@@ -427,6 +437,38 @@ impl<T: Transport> Pool<T> {
             self.sleep()?;
         }
         Ok(done.into_iter().flatten().collect())
+    }
+}
+
+impl<T: Transport> Pool<T> {
+    /// Sends queued jobs to workers with room, one per worker per pass, so
+    /// that a generation of few chunks is spread over every worker rather
+    /// than queued at the first.
+    fn dispatch(&mut self, jobs: &[Job], todo: &mut VecDeque<usize>) {
+        let mut sent = true;
+        while sent && !todo.is_empty() {
+            sent = false;
+            for link in self.links.iter_mut().filter(|l| l.has_room()) {
+                let Some(job) = todo.pop_front() else { break };
+                let mut header = jobs[job].header;
+                header.job_id = self.next_job;
+                self.next_job += 1;
+                let deadline = jobs[job].timed.then_some(self.opts.deadline);
+                match link.send(header, &jobs[job].genes, job, deadline) {
+                    Ok(()) => sent = true,
+                    Err(e) => {
+                        (self.say)(&format!("cannot send to worker {:016x}: {e}", link.id()));
+                        todo.push_front(job);
+                    }
+                }
+            }
+        }
+        for link in &mut self.links {
+            if let Err(e) = link.notify() {
+                // Its jobs go elsewhere when the broken link is dropped.
+                (self.say)(&format!("cannot notify worker {:016x}: {e}", link.id()));
+            }
+        }
     }
 }
 
@@ -590,6 +632,118 @@ mod tests {
             let flat: Vec<usize> = c.iter().flat_map(|r| r.clone()).collect();
             assert_eq!(flat, (0..n).collect::<Vec<_>>(), "n={n} parts={parts}");
             assert!(c.len() <= parts.max(1));
+        }
+    }
+
+    /// `dispatch` alone, over links that only record what they are sent.
+    mod dispatch {
+        use super::super::*;
+
+        struct Recorder {
+            id: u64,
+            jobs: Vec<usize>,
+        }
+
+        impl WorkerLink for Recorder {
+            fn id(&self) -> u64 {
+                self.id
+            }
+            fn pid(&self) -> u32 {
+                0
+            }
+            fn has_room(&self) -> bool {
+                self.jobs.len() < DEPTH
+            }
+            fn is_broken(&self) -> bool {
+                false
+            }
+            fn deadline(&self) -> Option<Instant> {
+                None
+            }
+            fn abandon(&mut self) -> Vec<usize> {
+                std::mem::take(&mut self.jobs)
+            }
+            fn send(
+                &mut self,
+                _: JobHeader,
+                _: &[WireGene],
+                job: usize,
+                _: Option<Duration>,
+            ) -> Result<(), String> {
+                self.jobs.push(job);
+                Ok(())
+            }
+            fn poll(&mut self) -> (Vec<Answer>, Option<String>) {
+                (Vec::new(), None)
+            }
+            fn break_off(&mut self) {}
+            fn shut_down(&self) {}
+        }
+
+        struct Nowhere;
+
+        impl Transport for Nowhere {
+            type Link = Recorder;
+            fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError> {
+                Ok(Vec::new())
+            }
+            fn connect(&mut self, _: &Arrival) -> Result<Recorder, String> {
+                Err("no".into())
+            }
+            fn departures(&mut self) -> Vec<u64> {
+                Vec::new()
+            }
+            fn sleep(&mut self, _: Duration) -> Result<(), EvalError> {
+                Ok(())
+            }
+            fn worker_args(&self) -> Vec<String> {
+                Vec::new()
+            }
+            fn close(&mut self) {}
+        }
+
+        /// Which jobs each of `workers` links is sent, from `n` queued.
+        fn spread(workers: u64, n: usize) -> (Vec<Vec<usize>>, usize) {
+            let opts = PoolOptions {
+                run_id: "t".into(),
+                spawn: 0,
+                worker_exe: PathBuf::new(),
+                chunks_per_worker: 1,
+                deadline: Duration::from_secs(1),
+                max_respawns: 0,
+                pin: false,
+            };
+            let mut pool = Pool::with_transport(Nowhere, opts, Box::new(|_| ())).unwrap();
+            pool.links = (0..workers)
+                .map(|id| Recorder {
+                    id,
+                    jobs: Vec::new(),
+                })
+                .collect();
+            let jobs: Vec<Job> = (0..n)
+                .map(|_| Job {
+                    header: JobHeader::default(),
+                    genes: Vec::new(),
+                    timed: true,
+                })
+                .collect();
+            let mut todo: VecDeque<usize> = (0..n).collect();
+            pool.dispatch(&jobs, &mut todo);
+            let sent = pool.links.iter().map(|l| l.jobs.clone()).collect();
+            (sent, todo.len())
+        }
+
+        #[test]
+        fn few_chunks_go_one_to_each_worker() {
+            assert_eq!(spread(2, 2), (vec![vec![0], vec![1]], 0));
+            assert_eq!(spread(3, 2), (vec![vec![0], vec![1], vec![]], 0));
+        }
+
+        #[test]
+        fn many_chunks_fill_every_queue_and_wait() {
+            assert_eq!(DEPTH, 4, "the cases below assume four queued per worker");
+            assert_eq!(spread(2, 12), (vec![vec![0, 2, 4, 6], vec![1, 3, 5, 7]], 4));
+            assert_eq!(spread(0, 3), (vec![], 3));
         }
     }
 

@@ -1,6 +1,7 @@
-//! Worker processes the coordinator starts itself: spawned, reaped with
-//! `waitpid` (iceoryx2 cannot tell a zombie from a live process) and
-//! replaced a bounded number of times.
+//! Worker processes the coordinator starts itself: spawned (each pinned to
+//! a CPU of its own when there are enough), reaped with `waitpid` (iceoryx2
+//! cannot tell a zombie from a live process) and replaced a bounded number
+//! of times, a replacement taking its predecessor's CPU.
 
 use crate::evaluator::EvalError;
 use std::path::PathBuf;
@@ -12,18 +13,32 @@ pub struct Children {
     run_id: String,
     /// What the transport needs on the worker's command line.
     args: Vec<String>,
-    procs: Vec<Child>,
+    /// Each live worker and the CPU it is pinned to, if any.
+    procs: Vec<(Child, Option<usize>)>,
+    /// CPUs no live worker is pinned to, handed out next.
+    free_cpus: Vec<usize>,
     next_id: u64,
     respawns_left: usize,
 }
 
 impl Children {
-    pub fn new(exe: PathBuf, run_id: String, args: Vec<String>, max_respawns: usize) -> Children {
+    /// Workers of `exe` for run `run_id`, pinned one to each of `cpus` in
+    /// turn (none pinned if `cpus` is empty).
+    pub fn new(
+        exe: PathBuf,
+        run_id: String,
+        args: Vec<String>,
+        max_respawns: usize,
+        cpus: Vec<usize>,
+    ) -> Children {
+        let mut free_cpus = cpus;
+        free_cpus.reverse();
         Children {
             exe,
             run_id,
             args,
             procs: Vec::new(),
+            free_cpus,
             next_id: 1,
             respawns_left: max_respawns,
         }
@@ -33,25 +48,33 @@ impl Children {
         self.procs.is_empty()
     }
 
-    /// Starts one more worker.
+    /// Starts one more worker, on the next free CPU if any.
     pub fn spawn(&mut self) -> Result<(), EvalError> {
-        let child = Command::new(&self.exe)
-            .args([
-                "--run",
-                &self.run_id,
-                "--id",
-                &format!("{:x}", self.next_id),
-                "--quiet",
-            ])
+        let cpu = self.free_cpus.pop();
+        let mut command = Command::new(&self.exe);
+        command.args([
+            "--run",
+            &self.run_id,
+            "--id",
+            &format!("{:x}", self.next_id),
+            "--quiet",
+        ]);
+        if let Some(cpu) = cpu {
+            command.args(["--cpu", &cpu.to_string()]);
+        }
+        let child = command
             .args(&self.args)
             .stdin(Stdio::null())
             .spawn()
-            .map_err(|e| EvalError::Spawn {
-                exe: self.exe.display().to_string(),
-                reason: e.to_string(),
+            .map_err(|e| {
+                self.free_cpus.extend(cpu);
+                EvalError::Spawn {
+                    exe: self.exe.display().to_string(),
+                    reason: e.to_string(),
+                }
             })?;
         self.next_id += 1;
-        self.procs.push(child);
+        self.procs.push((child, cpu));
         Ok(())
     }
 
@@ -69,10 +92,11 @@ impl Children {
     /// Reaps the workers that exited and returns their pids.
     pub fn exited(&mut self) -> Vec<u32> {
         let mut gone = Vec::new();
-        self.procs.retain_mut(|c| match c.try_wait() {
+        self.procs.retain_mut(|(c, cpu)| match c.try_wait() {
             Ok(None) => true,
             Ok(Some(_)) | Err(_) => {
                 gone.push(c.id());
+                self.free_cpus.extend(*cpu);
                 false
             }
         });
@@ -81,7 +105,7 @@ impl Children {
 
     /// Kills a hung worker; the next `exited` reaps it.
     pub fn kill(&mut self, pid: u32) {
-        if let Some(c) = self.procs.iter_mut().find(|c| c.id() == pid) {
+        if let Some((c, _)) = self.procs.iter_mut().find(|(c, _)| c.id() == pid) {
             let _ = c.kill();
         }
     }
@@ -94,7 +118,7 @@ impl Children {
             self.exited();
             std::thread::sleep(Duration::from_millis(5));
         }
-        for mut c in self.procs.drain(..) {
+        for (mut c, _) in self.procs.drain(..) {
             let _ = c.kill();
             let _ = c.wait();
         }

@@ -93,12 +93,12 @@ pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcEr
             if shutdown {
                 return stop(Ok(Some(Exit::RunFinished)));
             }
-            let answered = || {
+            let drained = || {
                 wake.notify()
                     .map(|_| ())
                     .map_err(iox::fail("waking the coordinator"))
             };
-            match serve_waiting(&server, id, say, answered) {
+            match serve_waiting(&server, id, say, drained) {
                 Ok(0) => {}
                 Ok(_) => served.set(true),
                 Err(e) => return stop(Err(e)),
@@ -179,16 +179,20 @@ type Server = iceoryx2::port::server::Server<
     ResultHeader,
 >;
 
-/// Answers every request waiting at the server, calling `answered` after
-/// each so the coordinator can queue more; returns how many.
+/// Answers every request waiting at the server, and calls `drained` once
+/// none is left, so the coordinator wakes once per drained queue rather than
+/// once per answer: on a machine with few cores each of its wake-ups takes
+/// a core from a worker. Returns how many it answered.
 fn serve_waiting(
     server: &Server,
     id: u64,
     say: &dyn Fn(Note, &str),
-    answered: impl Fn() -> Result<(), IpcError>,
+    drained: impl Fn() -> Result<(), IpcError>,
 ) -> Result<usize, IpcError> {
+    let receive = || server.receive().map_err(iox::fail("receiving a job"));
     let mut count = 0;
-    while let Some(request) = server.receive().map_err(iox::fail("receiving a job"))? {
+    let mut next = receive()?;
+    while let Some(request) = next {
         let (result, body) = answer(request.user_header(), request.payload(), id, say);
         let mut response = request
             .loan_slice_uninit(body.len())
@@ -198,8 +202,11 @@ fn serve_waiting(
             .write_from_slice(&body)
             .send()
             .map_err(iox::fail("sending a result"))?;
-        answered()?;
         count += 1;
+        next = receive()?;
+    }
+    if count > 0 {
+        drained()?;
     }
     Ok(count)
 }

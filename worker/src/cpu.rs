@@ -1,0 +1,85 @@
+//! Where worker processes run: the CPUs this process may use, pinning to
+//! one of them, and the batch scheduling class.
+//!
+//! Both matter on small machines. Without pinning, the scheduler places a
+//! woken worker near the coordinator that woke it, so at the start of a
+//! generation two workers can end up taking turns on one core while the
+//! other idles (measured on the 2-core development VM: the second chunk of
+//! a generation started only when the first had finished). And a worker in
+//! the batch class never preempts the coordinator on waking, so the
+//! coordinator finishes handing out a generation before anyone computes.
+
+use std::io;
+
+/// The CPUs this process may run on, in order; empty if unknown.
+pub fn allowed_cpus() -> Vec<usize> {
+    // SAFETY: a zeroed cpu_set_t is a valid empty set; sched_getaffinity
+    // writes at most size_of::<cpu_set_t>() bytes into it.
+    unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        if libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mut set) != 0 {
+            return Vec::new();
+        }
+        (0..libc::CPU_SETSIZE as usize)
+            .filter(|&cpu| libc::CPU_ISSET(cpu, &set))
+            .collect()
+    }
+}
+
+/// Runs the calling thread, and the threads it starts from now on, on
+/// `cpu` only. Call it first thing in `main` to pin the whole process.
+pub fn pin_to(cpu: usize) -> io::Result<()> {
+    if cpu >= libc::CPU_SETSIZE as usize {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("CPU {cpu} is beyond the largest CPU number this system supports"),
+        ));
+    }
+    // SAFETY: as above; `cpu` is below CPU_SETSIZE, so CPU_SET stays inside
+    // the set.
+    unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_SET(cpu, &mut set);
+        if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
+            return Err(io::Error::last_os_error());
+        }
+    }
+    Ok(())
+}
+
+/// Puts the calling thread, and the threads it starts from now on, in the
+/// batch scheduling class: their wake-ups never preempt a running task of
+/// the normal class, such as the coordinator.
+pub fn run_as_batch_job() -> io::Result<()> {
+    let param = libc::sched_param { sched_priority: 0 };
+    // SAFETY: sched_setscheduler on this process (pid 0) with a valid param.
+    if unsafe { libc::sched_setscheduler(0, libc::SCHED_BATCH, &param) } != 0 {
+        return Err(io::Error::last_os_error());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn this_process_may_run_somewhere() {
+        let cpus = allowed_cpus();
+        assert!(!cpus.is_empty());
+        assert!(cpus.windows(2).all(|w| w[0] < w[1]), "{cpus:?}");
+    }
+
+    #[test]
+    fn pinning_to_an_allowed_cpu_sticks_and_a_bad_one_is_refused() {
+        // A thread of its own, so the rest of the test process keeps its CPUs.
+        std::thread::spawn(|| {
+            let first = allowed_cpus()[0];
+            pin_to(first).unwrap();
+            assert_eq!(allowed_cpus(), [first]);
+            assert!(pin_to(libc::CPU_SETSIZE as usize).is_err());
+        })
+        .join()
+        .unwrap();
+    }
+}
