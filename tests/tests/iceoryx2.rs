@@ -378,3 +378,82 @@ fn qlearning_over_workers_matches_in_process_even_when_its_worker_dies() {
     assert_eq!(without_wall_time(json_out(&out)), expected);
     assert!(fs::read(dir.path().join("episodes.jsonl")).unwrap() == calm_log);
 }
+
+/// The CPUs process `pid` may run on, as /proc lists them ("0-1", "3").
+fn cpus_of(pid: &str) -> String {
+    fs::read_to_string(format!("/proc/{pid}/status"))
+        .unwrap()
+        .lines()
+        .find_map(|l| l.strip_prefix("Cpus_allowed_list:"))
+        .expect("/proc status lists the allowed CPUs")
+        .trim()
+        .to_string()
+}
+
+/// The scheduling policy of process `pid`: 0 normal, 3 batch (field 41 of
+/// /proc/PID/stat, counting from 1; the name in field 2 may hold spaces).
+fn policy_of(pid: u32) -> u32 {
+    let stat = fs::read_to_string(format!("/proc/{pid}/stat")).unwrap();
+    let (_, tail) = stat.rsplit_once(')').unwrap();
+    tail.split_whitespace()
+        .nth(41 - 3)
+        .unwrap()
+        .parse()
+        .unwrap()
+}
+
+/// Starts a long run with `extra` flags and returns what its two workers
+/// were given once it is under way: their CPUs and scheduling policies.
+fn workers_placement(iox: &Iox, extra: &[&str]) -> Vec<(String, u32)> {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = never_lands(dir.path());
+    let mut args = LONG.to_vec();
+    args.extend(["--config", &cfg, "--workers", "2"]);
+    args.extend_from_slice(extra);
+    let child = start(iox, dir.path(), &args);
+    let log = dir.path().join("generations.jsonl");
+    assert!(
+        wait_until(60, || lines_in(&log) >= 5),
+        "the run did not get going"
+    );
+    let workers = worker_children(child.id());
+    assert_eq!(workers.len(), 2);
+    let placement = workers
+        .iter()
+        .map(|&w| (cpus_of(&w.to_string()), policy_of(w)))
+        .collect();
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    placement
+}
+
+#[test]
+fn spawned_workers_get_a_cpu_each_and_the_batch_class() {
+    let iox = Iox::new("placement");
+    let everywhere = cpus_of("self");
+    let pinned = workers_placement(&iox, &[]);
+    let free = workers_placement(&iox, &["--no-pin"]);
+    for (_, policy) in pinned.iter().chain(&free) {
+        assert_eq!(
+            *policy, 3,
+            "a worker is not in the batch class (SCHED_BATCH)"
+        );
+    }
+    for (cpus, _) in &free {
+        assert_eq!(cpus, &everywhere, "--no-pin still pinned a worker");
+    }
+    let n = std::thread::available_parallelism().map_or(1, |n| n.get());
+    if n < 2 {
+        eprintln!("only {n} CPU here: two workers are not pinned, as designed");
+        assert_eq!(pinned, free);
+        return;
+    }
+    let (a, b) = (&pinned[0].0, &pinned[1].0);
+    for cpus in [a, b] {
+        assert!(
+            cpus.parse::<usize>().is_ok(),
+            "a worker may run on {cpus}, not on one CPU"
+        );
+    }
+    assert_ne!(a, b, "both workers were pinned to CPU {a}");
+}
