@@ -284,6 +284,13 @@ fn bad_worker_options_are_refused() {
         .unwrap();
     assert!(!out.status.success());
     assert!(stderr(&out).contains("--run"));
+    let out = iox
+        .command("lander-worker")
+        .args(["--run", "somerun", "--cpu", "100000"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("--cpu 100000"), "{}", stderr(&out));
 }
 
 #[test]

@@ -90,9 +90,8 @@ fn main() -> ExitCode {
     let id = args.id.unwrap_or_else(rand::random);
     let say = |msg: &str| eprintln!("lander-worker {id:016x}: {msg}");
     if let (Err(e), Some(n)) = (placed, args.cpu) {
-        say(&format!(
-            "warning: cannot pin to CPU {n} (--cpu): {e}; running anywhere"
-        ));
+        say(&format!("error: --cpu {n}: cannot run there: {e}"));
+        return ExitCode::FAILURE;
     }
     if let Err(e) = batch {
         say(&format!(

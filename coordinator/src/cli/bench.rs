@@ -84,6 +84,7 @@ fn args_for_stress(args: &BenchArgs) -> super::stress::StressArgs {
     super::stress::StressArgs {
         workers: args.workers,
         kill_rate: args.kill_rate,
+        no_pin: args.no_pin,
         json: args.json,
     }
 }
@@ -108,8 +109,7 @@ fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
             "iceoryx2" => {
                 for w in if n > 1 { vec![1, n] } else { vec![1] } {
                     let id = format!("bench{:08x}", rand::random::<u32>());
-                    let mut opts = pool_options(id, w, Duration::from_secs(60))?;
-                    opts.pin = !args.no_pin;
+                    let opts = pool_options(id, w, Duration::from_secs(60), !args.no_pin)?;
                     let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("lander: {m}")))?;
                     pool.wait_for_workers(w, Duration::from_secs(20))
                         .context("waiting for the benchmark's workers")?;
@@ -121,8 +121,7 @@ fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
             }
             "zenoh" => {
                 let id = format!("bench{:08x}", rand::random::<u32>());
-                let mut opts = pool_options(id, n, Duration::from_secs(60))?;
-                opts.pin = !args.no_pin;
+                let opts = pool_options(id, n, Duration::from_secs(60), !args.no_pin)?;
                 let options = NetOptions {
                     listen: vec![args.listen.clone()],
                     ..NetOptions::default()

@@ -17,6 +17,7 @@ use std::time::Duration;
 pub struct StressArgs {
     pub workers: usize,
     pub kill_rate: f64,
+    pub no_pin: bool,
     pub json: bool,
 }
 
@@ -48,6 +49,7 @@ pub fn stress(args: &StressArgs, work: &Workload) -> anyhow::Result<()> {
         format!("stress{:08x}", rand::random::<u32>()),
         args.workers,
         Duration::from_secs(60),
+        !args.no_pin,
     )?;
     opts.chunks_per_worker = 16;
     opts.max_respawns = usize::MAX;

@@ -98,8 +98,8 @@ impl TransportArgs {
             Some(id) => check_run_id(id)?,
             None => format!("{:08x}", rand::random::<u32>()),
         };
-        let mut opts = pool_options(run_id, self.workers, Duration::from_secs_f64(self.deadline))?;
-        opts.pin = !self.no_pin;
+        let deadline = Duration::from_secs_f64(self.deadline);
+        let opts = pool_options(run_id, self.workers, deadline, !self.no_pin)?;
         let bar = bar.clone();
         let say = Box::new(move |msg: &str| bar.suspend(|| eprintln!("lander: {msg}")));
         if self.attach {
@@ -135,11 +135,12 @@ impl TransportArgs {
 }
 
 /// A pool that spawns `workers` copies of the `lander-worker` beside this
-/// executable (0: workers attach themselves).
+/// executable (0: workers attach themselves), pinned to a CPU each if `pin`.
 pub fn pool_options(
     run_id: String,
     workers: usize,
     deadline: Duration,
+    pin: bool,
 ) -> anyhow::Result<PoolOptions> {
     let worker_exe = std::env::current_exe()
         .context("finding this executable")?
@@ -151,7 +152,7 @@ pub fn pool_options(
         chunks_per_worker: 4,
         deadline,
         max_respawns: 3 * workers.max(1),
-        pin: true,
+        pin,
     })
 }
 

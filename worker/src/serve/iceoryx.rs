@@ -189,10 +189,8 @@ fn serve_waiting(
     say: &dyn Fn(Note, &str),
     drained: impl Fn() -> Result<(), IpcError>,
 ) -> Result<usize, IpcError> {
-    let receive = || server.receive().map_err(iox::fail("receiving a job"));
     let mut count = 0;
-    let mut next = receive()?;
-    while let Some(request) = next {
+    while let Some(request) = server.receive().map_err(iox::fail("receiving a job"))? {
         let (result, body) = answer(request.user_header(), request.payload(), id, say);
         let mut response = request
             .loan_slice_uninit(body.len())
@@ -203,7 +201,6 @@ fn serve_waiting(
             .send()
             .map_err(iox::fail("sending a result"))?;
         count += 1;
-        next = receive()?;
     }
     if count > 0 {
         drained()?;
