@@ -904,3 +904,40 @@ fn every_example_zenoh_config_parses_with_its_mode() {
         ]
     );
 }
+
+/// The router unit is checked, not run: it starts `zenohd`, which this
+/// project does not build. What it starts zenohd with is the file
+/// deploy/README.md installs, and that file is run as a real router above.
+#[test]
+fn the_router_unit_starts_zenohd_on_the_installed_router_config() {
+    let unit = fs::read_to_string(deploy("systemd/zenoh-router.service")).unwrap();
+    let exec = unit
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("ExecStart="))
+        .expect("the unit has an ExecStart=");
+    let argv: Vec<&str> = exec.split_whitespace().collect();
+    assert_eq!(
+        argv,
+        ["/usr/local/bin/zenohd", "-c", "/etc/lander/router.json5"]
+    );
+    for line in [
+        "Restart=on-failure",
+        "NoNewPrivileges=yes",
+        "WantedBy=multi-user.target",
+    ] {
+        assert!(
+            unit.lines().any(|l| l.trim() == line),
+            "the unit lacks {line}"
+        );
+    }
+    let readme = fs::read_to_string(deploy("README.md")).unwrap();
+    for step in [
+        "install -m 644 deploy/zenoh/router.json5 /etc/lander/",
+        "install -m 644 deploy/systemd/zenoh-router.service /etc/systemd/system/",
+    ] {
+        assert!(
+            readme.contains(step),
+            "deploy/README.md no longer says {step:?}"
+        );
+    }
+}
