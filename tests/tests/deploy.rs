@@ -207,6 +207,14 @@ fn start_workers(name: &str, dir: &Path, args: &[&str]) -> Proc {
     )
 }
 
+/// `start-workers.sh` starting two workers for `run_id` at `endpoint`,
+/// with `extra` flags.
+fn two_workers(dir: &Path, run_id: &str, endpoint: &str, extra: &[&str]) -> Proc {
+    let mut args = vec!["--run", run_id, "--connect", endpoint, "-n", "2"];
+    args.extend_from_slice(extra);
+    start_workers("start-workers", dir, &args)
+}
+
 /// A bare `lander-worker` over zenoh.
 fn worker(name: &str, dir: &Path, run_id: &str, args: &[&str]) -> Proc {
     Proc::spawn(
@@ -320,16 +328,11 @@ fn start_workers_serves_a_run_with_make_users_credentials() {
             s(&coordinator_cfg),
         ],
     );
-    let workers = start_workers(
-        "start-workers",
+    let workers = two_workers(
         dir,
+        &run_id,
+        &listen,
         &[
-            "--run",
-            &run_id,
-            "--connect",
-            &listen,
-            "-n",
-            "2",
             "--credentials",
             s(&creds.join("host-b.credentials")),
             "--zenoh-config",
@@ -560,20 +563,7 @@ fn mutual_tls_with_make_certs_admits_members_only() {
         ),
         stranger("plain-tcp", dir, &run_id, &["--connect", &plain]),
     ];
-    let members = start_workers(
-        "start-workers",
-        dir,
-        &[
-            "--run",
-            &run_id,
-            "--connect",
-            &listen,
-            "-n",
-            "2",
-            "--zenoh-config",
-            s(&worker_cfg),
-        ],
-    );
+    let members = two_workers(dir, &run_id, &listen, &["--zenoh-config", s(&worker_cfg)]);
     assert_same_as_in_process(coordinator, dir);
     let said = assert_served(members, 2);
     assert_eq!(
@@ -796,11 +786,7 @@ fn the_router_config_routes_jobs_between_coordinator_and_workers() {
         &run_id,
         &["--listen", &own, "--zenoh-config", s(&coordinator_cfg)],
     );
-    let workers = start_workers(
-        "start-workers",
-        dir,
-        &["--run", &run_id, "--connect", &via, "-n", "2"],
-    );
+    let workers = two_workers(dir, &run_id, &via, &[]);
     assert_same_as_in_process(coordinator, dir);
     assert_served(workers, 2);
     router.close().wait().unwrap();
@@ -850,19 +836,11 @@ fn a_router_with_the_users_dictionary_keeps_strangers_out() {
         &["--listen", &own, "--zenoh-config", s(&coordinator_cfg)],
     );
     let stranger = stranger("stranger", dir, &run_id, &["--connect", &via]);
-    let members = start_workers(
-        "start-workers",
+    let members = two_workers(
         dir,
-        &[
-            "--run",
-            &run_id,
-            "--connect",
-            &via,
-            "-n",
-            "2",
-            "--credentials",
-            s(&creds.join("host-b.credentials")),
-        ],
+        &run_id,
+        &via,
+        &["--credentials", s(&creds.join("host-b.credentials"))],
     );
     assert_same_as_in_process(coordinator, dir);
     assert_served(members, 2);
