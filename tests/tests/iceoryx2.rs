@@ -122,6 +122,23 @@ fn a_clean_run_leaves_no_processes_and_no_files() {
     assert_eq!(iox.root_files(), Vec::<std::path::PathBuf>::new());
 }
 
+/// Starts `lander run` with `args` on two spawned workers, writing to
+/// `dir`, and returns it with its workers' pids once `lines` generations
+/// are written.
+fn under_way(iox: &Iox, dir: &Path, args: &[&str], lines: usize) -> (Child, Vec<u32>) {
+    let mut args = args.to_vec();
+    args.extend(["--workers", "2"]);
+    let child = start(iox, dir, &args);
+    let log = dir.join("generations.jsonl");
+    assert!(
+        wait_until(60, || lines_in(&log) >= lines),
+        "the run did not get going"
+    );
+    let workers = worker_children(child.id());
+    assert_eq!(workers.len(), 2);
+    (child, workers)
+}
+
 /// Runs LONG over two spawned workers, doing `disturb` to them once 40
 /// generations are written, and checks the results match an undisturbed
 /// in-process run.
@@ -135,16 +152,9 @@ fn survives(test: &str, extra: &[&str], reported: &str, disturb: impl Fn(&[u32])
     let expected = finished(&iox, calm_dir.path(), &calm);
 
     let mut args = calm.clone();
-    args.extend(["--workers", "2"]);
     args.extend_from_slice(extra);
-    let child = start(&iox, dir.path(), &args);
+    let (child, workers) = under_way(&iox, dir.path(), &args, 40);
     let log = dir.path().join("generations.jsonl");
-    assert!(
-        wait_until(60, || lines_in(&log) >= 40),
-        "the run did not get going"
-    );
-    let workers = worker_children(child.id());
-    assert_eq!(workers.len(), 2);
     disturb(&workers);
     let out = child.wait_with_output().unwrap();
     assert!(out.status.success(), "{}", stderr(&out));
@@ -415,16 +425,9 @@ fn workers_placement(iox: &Iox, extra: &[&str]) -> Vec<(String, u32)> {
     let dir = tempfile::tempdir().unwrap();
     let cfg = never_lands(dir.path());
     let mut args = LONG.to_vec();
-    args.extend(["--config", &cfg, "--workers", "2"]);
+    args.extend(["--config", &cfg]);
     args.extend_from_slice(extra);
-    let child = start(iox, dir.path(), &args);
-    let log = dir.path().join("generations.jsonl");
-    assert!(
-        wait_until(60, || lines_in(&log) >= 5),
-        "the run did not get going"
-    );
-    let workers = worker_children(child.id());
-    assert_eq!(workers.len(), 2);
+    let (child, workers) = under_way(iox, dir.path(), &args, 5);
     let placement = workers
         .iter()
         .map(|&w| (cpus_of(&w.to_string()), policy_of(w)))
