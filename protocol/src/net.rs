@@ -44,8 +44,18 @@ pub fn fail<E: std::fmt::Display>(what: &str) -> impl Fn(E) -> NetError + '_ {
 fn set(cfg: &mut Config, key: &str, value: &str) -> Result<(), NetError> {
     cfg.insert_json5(key, value).map_err(|e| NetError::Config {
         key: key.to_string(),
-        detail: e.to_string(),
+        detail: tidy(&e.to_string()),
     })
+}
+
+/// The part of a zenoh configuration error meant for people: its message
+/// without the debug wrapping and the source location zenoh appends.
+fn tidy(error: &str) -> String {
+    let message = error
+        .split_once("msg: \"")
+        .and_then(|(_, rest)| rest.split_once('"'))
+        .map_or(error, |(msg, _)| msg);
+    message.split(" at /").next().unwrap_or(message).to_string()
 }
 
 fn json(v: &impl serde::Serialize) -> String {
@@ -55,10 +65,7 @@ fn json(v: &impl serde::Serialize) -> String {
 /// The settings both ends share, over `options.config_file` if given.
 fn base(options: &NetOptions, mode: &str) -> Result<Config, NetError> {
     let mut cfg = match &options.config_file {
-        Some(path) => Config::from_file(path).map_err(|e| NetError::File {
-            path: path.clone(),
-            detail: e.to_string(),
-        })?,
+        Some(path) => from_file(path, mode)?,
         None => Config::default(),
     };
     set(&mut cfg, "mode", &json(&mode))?;
@@ -72,6 +79,24 @@ fn base(options: &NetOptions, mode: &str) -> Result<Config, NetError> {
     }
     if !options.connect.is_empty() {
         set(&mut cfg, "connect/endpoints", &json(&options.connect))?;
+    }
+    Ok(cfg)
+}
+
+/// A zenoh configuration file for a session of `mode`; one that names
+/// another mode is refused (a worker's file given to the router, say).
+fn from_file(path: &Path, mode: &str) -> Result<Config, NetError> {
+    let refuse = |detail: String| NetError::File {
+        path: path.to_path_buf(),
+        detail,
+    };
+    readable(path)?;
+    let cfg = Config::from_file(path).map_err(|e| refuse(tidy(&e.to_string())))?;
+    let named = cfg.get_json("mode").unwrap_or_default();
+    if named != "null" && named != json(&mode) {
+        return Err(refuse(format!(
+            "mode is {named}, but this session is a {mode}; set mode: \"{mode}\" or leave it out"
+        )));
     }
     Ok(cfg)
 }
@@ -109,15 +134,30 @@ pub fn guard_tls(cfg: &Config) -> bool {
 /// The coordinator: a peer that listens and checks workers' credentials.
 pub fn coordinator_config(options: &NetOptions) -> Result<Config, NetError> {
     let mut cfg = base(options, "peer")?;
+    check_users(&mut cfg, options)?;
+    Ok(cfg)
+}
+
+/// A router, for a coordinator and workers that cannot reach each other:
+/// all of them connect to it, and it forwards jobs and results. Given a
+/// user dictionary it checks everyone who connects, coordinator included.
+pub fn router_config(options: &NetOptions) -> Result<Config, NetError> {
+    let mut cfg = base(options, "router")?;
+    check_users(&mut cfg, options)?;
+    Ok(cfg)
+}
+
+/// Admits only sessions presenting a pair from `options.users`, if given.
+fn check_users(cfg: &mut Config, options: &NetOptions) -> Result<(), NetError> {
     if let Some(users) = &options.users {
         readable(users)?;
         set(
-            &mut cfg,
+            cfg,
             "transport/auth/usrpwd/dictionary_file",
             &json(&users.display().to_string()),
         )?;
     }
-    Ok(cfg)
+    Ok(())
 }
 
 /// A worker: a client of the coordinator, never listening itself.
@@ -157,24 +197,52 @@ pub fn credentials(path: &Path) -> Result<(String, String), NetError> {
     }
 }
 
-/// True when the options say who may join: a user dictionary, or a zenoh
-/// configuration file (which is where TLS with client certificates goes).
-pub fn authenticated(options: &NetOptions) -> bool {
-    options.users.is_some() || options.config_file.is_some()
+/// The endpoints `cfg` listens on (its own mode's, where they differ by
+/// mode), as written: `tcp/0.0.0.0:7447`.
+pub fn listening(cfg: &Config) -> Vec<String> {
+    let read = |key: &str| -> serde_json::Value {
+        cfg.get_json(key)
+            .ok()
+            .and_then(|j| serde_json::from_str(&j).ok())
+            .unwrap_or_default()
+    };
+    let endpoints = match read("listen/endpoints") {
+        serde_json::Value::Object(by_mode) => read("mode")
+            .as_str()
+            .and_then(|mode| by_mode.get(mode).cloned())
+            .unwrap_or_default(),
+        list => list,
+    };
+    endpoints
+        .as_array()
+        .map(|list| {
+            list.iter()
+                .filter_map(|e| e.as_str().map(String::from))
+                .collect()
+        })
+        .unwrap_or_default()
 }
 
-/// The listen endpoints reachable from other hosts: anything but loopback.
-pub fn exposed(options: &NetOptions) -> Vec<&str> {
-    options
-        .listen
-        .iter()
-        .map(String::as_str)
-        .filter(|e| {
-            let host = e.split_once('/').map_or(*e, |(_, a)| a);
-            let host = host.rsplit_once(':').map_or(host, |(h, _)| h);
-            !(host.starts_with("127.") || host == "localhost" || host == "[::1]")
-        })
+/// The listen endpoints of `cfg` that a stranger on another host could
+/// join through: not loopback, and not guarded by a user dictionary or by
+/// TLS that asks for a client certificate.
+pub fn open_to_strangers(cfg: &Config) -> Vec<String> {
+    let on = |key: &str| cfg.get_json(key).is_ok_and(|v| v != "null" && v != "false");
+    if on("transport/auth/usrpwd/dictionary_file") {
+        return Vec::new();
+    }
+    let mutual_tls = on("transport/link/tls/enable_mtls");
+    listening(cfg)
+        .into_iter()
+        .filter(|e| !(loopback(e) || mutual_tls && e.starts_with("tls/")))
         .collect()
+}
+
+fn loopback(endpoint: &str) -> bool {
+    let address = endpoint.split_once('/').map_or(endpoint, |(_, a)| a);
+    let address = address.split_once('#').map_or(address, |(a, _)| a);
+    let host = address.rsplit_once(':').map_or(address, |(h, _)| h);
+    host.starts_with("127.") || host == "localhost" || host == "[::1]"
 }
 
 /// The key expressions of one run.
@@ -242,17 +310,88 @@ mod tests {
     }
 
     #[test]
-    fn only_loopback_is_private() {
+    fn strangers_get_in_only_where_nothing_checks_them() {
         let options = NetOptions {
             listen: vec![
                 "tcp/127.0.0.1:7447".into(),
                 "tcp/0.0.0.0:7447".into(),
                 "tcp/[::1]:7447".into(),
                 "tls/10.0.0.5:7447".into(),
+                "tcp/localhost:7447#iface=lo".into(),
             ],
             ..NetOptions::default()
         };
-        assert_eq!(exposed(&options), ["tcp/0.0.0.0:7447", "tls/10.0.0.5:7447"]);
+        let mut cfg = coordinator_config(&options).unwrap();
+        assert_eq!(listening(&cfg).len(), 5);
+        assert_eq!(
+            open_to_strangers(&cfg),
+            ["tcp/0.0.0.0:7447", "tls/10.0.0.5:7447"]
+        );
+        // Mutual TLS guards the TLS endpoint only.
+        cfg.insert_json5("transport/link/tls/enable_mtls", "true")
+            .unwrap();
+        assert_eq!(open_to_strangers(&cfg), ["tcp/0.0.0.0:7447"]);
+        // A user dictionary guards every link.
+        cfg.insert_json5("transport/auth/usrpwd/dictionary_file", r#""users.txt""#)
+            .unwrap();
+        assert!(open_to_strangers(&cfg).is_empty());
+    }
+
+    #[test]
+    fn a_file_for_another_mode_is_refused_by_name() {
+        let dir = std::env::temp_dir().join(format!("lander-mode-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = |name: &str, text: &str| {
+            let path = dir.join(name);
+            std::fs::write(&path, text).unwrap();
+            NetOptions {
+                config_file: Some(path),
+                ..NetOptions::default()
+            }
+        };
+        let client = file("client.json5", r#"{ mode: "client" }"#);
+        let e = router_config(&client).unwrap_err().to_string();
+        assert!(e.contains("client.json5") && e.contains("mode"), "{e}");
+        worker_config(&client).unwrap();
+        // A file that names no mode suits every session.
+        let any = file(
+            "any.json5",
+            "{ scouting: { multicast: { enabled: false } } }",
+        );
+        let cfg = router_config(&any).unwrap();
+        assert_eq!(cfg.get_json("mode").unwrap(), r#""router""#);
+        coordinator_config(&any).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_bad_endpoint_is_named_without_zenohs_internals() {
+        let options = NetOptions {
+            listen: vec!["nonsense".into()],
+            ..NetOptions::default()
+        };
+        let e = router_config(&options).unwrap_err().to_string();
+        assert!(
+            e.starts_with("zenoh configuration listen/endpoints: "),
+            "{e}"
+        );
+        assert!(
+            e.contains("nonsense") || e.contains("<protocol>/<address>"),
+            "{e}"
+        );
+        assert!(!e.contains(".rs:") && !e.contains("Json5Err"), "{e}");
+    }
+
+    #[test]
+    fn endpoints_by_mode_are_read_for_the_sessions_own_mode() {
+        let mut cfg = Config::default();
+        cfg.insert_json5("mode", r#""router""#).unwrap();
+        cfg.insert_json5(
+            "listen/endpoints",
+            r#"{ router: ["tcp/0.0.0.0:7447"], peer: ["tcp/127.0.0.1:7447"] }"#,
+        )
+        .unwrap();
+        assert_eq!(listening(&cfg), ["tcp/0.0.0.0:7447"]);
     }
 
     #[test]

@@ -19,6 +19,18 @@ fn profile_dir() -> PathBuf {
         .to_path_buf()
 }
 
+/// What cargo sets for the package under test, not for a build.
+const PACKAGE_VARIABLES: &[&str] = &[
+    "CARGO_MANIFEST_",
+    "CARGO_PKG_",
+    "CARGO_CRATE_NAME",
+    "CARGO_BIN_",
+    "CARGO_PRIMARY_PACKAGE",
+    "CARGO_TARGET_TMPDIR",
+    "CARGO_RUSTC_CURRENT_DIR",
+    "OUT_DIR",
+];
+
 /// The path of one of the workspace's binaries, built with the same profile
 /// as the tests on first use, so `cargo test` alone is enough.
 pub fn binary(name: &str) -> PathBuf {
@@ -28,6 +40,16 @@ pub fn binary(name: &str) -> PathBuf {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let mut cmd = Command::new(cargo);
         cmd.args(["build", "--workspace", "--bins", "--quiet"]);
+        // cargo gives this test process its package's variables
+        // (CARGO_MANIFEST_DIR, CARGO_PKG_NAME, …). ring's build script
+        // reruns when they change, so passing them on would rebuild ring,
+        // rustls and zenoh here, and again at the next `cargo test`.
+        for (key, _) in std::env::vars_os() {
+            let key = key.to_string_lossy();
+            if PACKAGE_VARIABLES.iter().any(|p| key.starts_with(p)) {
+                cmd.env_remove(&*key);
+            }
+        }
         match dir.file_name().and_then(|n| n.to_str()) {
             Some("debug") | None => {}
             Some(profile) => {

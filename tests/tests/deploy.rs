@@ -3,6 +3,7 @@
 //! real processes and real zenoh sessions on loopback. Every run must give
 //! results byte-identical to the same run in one process.
 
+use lander_protocol::net::{self, NetError, NetOptions};
 use lander_tests::{binary, stderr, wait_until, without_wall_time, worker_children};
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -11,7 +12,6 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
-use zenoh::Wait;
 
 /// A small guided run: quick, but long enough to need many jobs.
 const RUN: &[&str] = &[
@@ -753,14 +753,36 @@ fn the_systemd_worker_unit_serves_a_run() {
     }
 }
 
-/// A zenoh router in this process from deploy/zenoh/router.json5 (after
-/// `edits` to its text), listening on `port` instead of 7447.
-fn router(dir: &Path, certs: &Path, port: u16, edits: &[(&str, &str)]) -> zenoh::Session {
-    let path = example("router.json5", "router.json5", certs, dir, edits);
-    let mut cfg = zenoh::Config::from_file(&path).unwrap();
-    cfg.insert_json5("listen/endpoints", &format!(r#"["tcp/127.0.0.1:{port}"]"#))
-        .unwrap();
-    zenoh::open(cfg).wait().expect("the router opens")
+/// The router as systemd would start it: the command line of
+/// systemd/lander-router.service, with this build's `lander` and a copy of
+/// deploy/zenoh/router.json5 (after `edits` to its text) listening on
+/// loopback at `port` instead of every interface at 7447.
+fn router(dir: &Path, certs: &Path, port: u16, edits: &[(&str, &str)]) -> Proc {
+    let listen = format!("tcp/127.0.0.1:{port}");
+    let mut edits = edits.to_vec();
+    edits.push(("tcp/0.0.0.0:7447", &listen));
+    let config = example("router.json5", "router.json5", certs, dir, &edits);
+    let unit = fs::read_to_string(deploy("systemd/lander-router.service")).unwrap();
+    let argv: Vec<String> = exec_start(&unit, &BTreeMap::new())
+        .into_iter()
+        .map(|arg| match arg.as_str() {
+            "/usr/local/bin/lander" => s(&binary("lander")).to_string(),
+            "/etc/lander/router.json5" => s(&config).to_string(),
+            _ => arg,
+        })
+        .collect();
+    let router = Proc::spawn("router", dir, Command::new(&argv[0]).args(&argv[1..]));
+    router.await_line(&format!("listening on {listen}"));
+    router
+}
+
+/// The router stops cleanly on `signal`, so Restart=on-failure leaves it
+/// stopped.
+fn assert_router_stops(router: Proc, signal: &str) {
+    let out = router.stop(signal);
+    let said = stderr(&out);
+    assert!(out.status.success(), "the router failed: {said}");
+    assert!(said.contains("stopped by signal"), "{said}");
 }
 
 #[test]
@@ -789,7 +811,7 @@ fn the_router_config_routes_jobs_between_coordinator_and_workers() {
     let workers = two_workers(dir, &run_id, &via, &[]);
     assert_same_as_in_process(coordinator, dir);
     assert_served(workers, 2);
-    router.close().wait().unwrap();
+    assert_router_stops(router, "TERM");
 }
 
 #[test]
@@ -845,28 +867,31 @@ fn a_router_with_the_users_dictionary_keeps_strangers_out() {
     assert_same_as_in_process(coordinator, dir);
     assert_served(members, 2);
     assert_kept_out(stranger);
-    router.close().wait().unwrap();
+    assert_router_stops(router, "INT");
 }
 
+/// Every example loads the way lander loads it, for the session it is
+/// for; a loaded file's mode is checked against that session.
 #[test]
-fn every_example_zenoh_config_parses_with_its_mode() {
+fn every_example_zenoh_config_loads_for_its_session() {
     let mut seen = Vec::new();
     for entry in fs::read_dir(deploy("zenoh")).unwrap() {
         let path = entry.unwrap().path();
         let name = path.file_name().unwrap().to_str().unwrap().to_string();
         assert!(name.ends_with(".json5"), "deploy/zenoh/{name} is not JSON5");
-        let cfg = zenoh::Config::from_file(&path)
-            .unwrap_or_else(|e| panic!("deploy/zenoh/{name} does not parse: {e}"));
-        let mode = cfg.get_json("mode").unwrap();
-        let expected = if name.starts_with("coordinator") {
-            "peer"
+        let options = NetOptions {
+            config_file: Some(path.clone()),
+            ..NetOptions::default()
+        };
+        let loaded = if name.starts_with("coordinator") {
+            net::coordinator_config(&options)
         } else if name.starts_with("worker") {
-            "client"
+            net::worker_config(&options)
         } else {
             assert_eq!(name, "router.json5");
-            "router"
+            net::router_config(&options)
         };
-        assert_eq!(mode, format!("\"{expected}\""), "deploy/zenoh/{name}");
+        loaded.unwrap_or_else(|e| panic!("deploy/zenoh/{name} does not load: {e}"));
         seen.push(name);
     }
     seen.sort();
@@ -883,24 +908,57 @@ fn every_example_zenoh_config_parses_with_its_mode() {
     );
 }
 
-/// The router unit is checked, not run: it starts `zenohd`, which this
-/// project does not build. What it starts zenohd with is the file
-/// deploy/README.md installs, and that file is run as a real router above.
+/// Which examples leave a way in for strangers, as the warnings say: the
+/// plain router until its dictionary line is uncommented; the TLS
+/// coordinator on no interface.
 #[test]
-fn the_router_unit_starts_zenohd_on_the_installed_router_config() {
-    let unit = fs::read_to_string(deploy("systemd/zenoh-router.service")).unwrap();
-    let exec = unit
-        .lines()
-        .find_map(|l| l.trim().strip_prefix("ExecStart="))
-        .expect("the unit has an ExecStart=");
-    let argv: Vec<&str> = exec.split_whitespace().collect();
+fn the_examples_guard_what_their_comments_say() {
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let load = |file: PathBuf, listen: &[&str], make: fn(&NetOptions) -> Result<_, NetError>| {
+        let options = NetOptions {
+            config_file: Some(file),
+            listen: listen.iter().map(|e| e.to_string()).collect(),
+            ..NetOptions::default()
+        };
+        net::open_to_strangers(&make(&options).unwrap())
+    };
+    let plain = example("router.json5", "plain.json5", dir, dir, &[]);
+    assert_eq!(load(plain, &[], net::router_config), ["tcp/0.0.0.0:7447"]);
+    let guarded = example(
+        "router.json5",
+        "guarded.json5",
+        dir,
+        dir,
+        &[(
+            "  // transport: { auth: { usrpwd: { dictionary_file:",
+            "  transport: { auth: { usrpwd: { dictionary_file:",
+        )],
+    );
+    assert!(load(guarded, &[], net::router_config).is_empty());
+    let tls = example("coordinator-tls.json5", "tls.json5", dir, dir, &[]);
+    assert!(load(tls, &["tls/0.0.0.0:7447"], net::coordinator_config).is_empty());
+}
+
+/// What the router unit runs is started by the router tests above; here,
+/// the rest of the unit and the walkthrough's install steps, and the
+/// router's refusals.
+#[test]
+fn the_router_unit_runs_lander_router_on_the_installed_config() {
+    let unit = fs::read_to_string(deploy("systemd/lander-router.service")).unwrap();
     assert_eq!(
-        argv,
-        ["/usr/local/bin/zenohd", "-c", "/etc/lander/router.json5"]
+        exec_start(&unit, &BTreeMap::new()),
+        [
+            "/usr/local/bin/lander",
+            "router",
+            "-c",
+            "/etc/lander/router.json5"
+        ]
     );
     for line in [
         "Restart=on-failure",
         "NoNewPrivileges=yes",
+        "DynamicUser=yes",
         "WantedBy=multi-user.target",
     ] {
         assert!(
@@ -911,11 +969,30 @@ fn the_router_unit_starts_zenohd_on_the_installed_router_config() {
     let readme = fs::read_to_string(deploy("README.md")).unwrap();
     for step in [
         "install -m 644 deploy/zenoh/router.json5 /etc/lander/",
-        "install -m 644 deploy/systemd/zenoh-router.service /etc/systemd/system/",
+        "install -m 644 deploy/systemd/lander-router.service /etc/systemd/system/",
     ] {
         assert!(
             readme.contains(step),
             "deploy/README.md no longer says {step:?}"
         );
     }
+    let refused = |args: &[&str], says: &str| {
+        let out = Command::new(binary("lander"))
+            .arg("router")
+            .args(args)
+            .output()
+            .unwrap();
+        let said = stderr(&out);
+        assert!(!out.status.success(), "router {args:?} started: {said}");
+        assert!(said.contains(says), "router {args:?}: {said}");
+        assert!(!said.contains("panicked"), "router {args:?}: {said}");
+    };
+    refused(&[], "--listen ENDPOINT");
+    refused(
+        &["-c", "/nonexistent/router.json5"],
+        "/nonexistent/router.json5",
+    );
+    let worker = deploy("zenoh/worker.json5");
+    refused(&["-c", s(&worker)], "mode is \"client\"");
+    refused(&["--listen", "nonsense"], "nonsense");
 }

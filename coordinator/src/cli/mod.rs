@@ -5,6 +5,7 @@ mod experiment;
 mod flight;
 mod learning;
 mod replay;
+mod router;
 mod run;
 mod stress;
 mod transport;
@@ -38,6 +39,9 @@ enum Command {
     Replay(replay::ReplayArgs),
     /// Compare evaluation throughput in-process and over iceoryx2, side by side.
     Bench(bench::BenchArgs),
+    /// Relay between a coordinator and workers on hosts that cannot reach
+    /// each other: a zenoh router, until SIGTERM or SIGINT.
+    Router(router::RouterArgs),
 }
 
 pub fn dispatch(cli: Cli) -> anyhow::Result<()> {
@@ -48,5 +52,6 @@ pub fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(args) => bench::bench(args),
         Command::Experiment(args) => experiment::experiment(args),
         Command::Replay(args) => replay::replay(args),
+        Command::Router(args) => router::router(args),
     }
 }

@@ -9,7 +9,7 @@ use lander_coordinator::evaluator::{Backend, InProcess};
 use lander_coordinator::pool::zenoh::Zenoh;
 use lander_coordinator::pool::{IpcPool, Pool, PoolOptions, Say};
 use lander_protocol::iox::MAX_WORKERS;
-use lander_protocol::net::{authenticated, exposed, NetOptions};
+use lander_protocol::net::{coordinator_config, open_to_strangers, NetOptions};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -118,11 +118,11 @@ impl TransportArgs {
             users: self.users.clone(),
             ..NetOptions::default()
         };
-        let open = exposed(&options);
-        if !open.is_empty() && !authenticated(&options) {
+        let open = open_to_strangers(&coordinator_config(&options)?);
+        if !open.is_empty() {
             say(&format!(
                 "warning: listening on {} without authentication: anyone who can reach it \
-                 can join this run and send it results; pass --users or a TLS --zenoh-config",
+                 can join this run and send it results; pass --users or a mutual-TLS --zenoh-config",
                 open.join(", ")
             ));
         }
