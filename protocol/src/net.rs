@@ -338,6 +338,26 @@ mod tests {
     }
 
     #[test]
+    fn a_router_with_users_lets_no_stranger_in() {
+        let dir = std::env::temp_dir().join(format!("lander-router-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let users = dir.join("users.txt");
+        std::fs::write(&users, "coordinator:secret\n").unwrap();
+        let mut options = NetOptions {
+            listen: vec!["tcp/0.0.0.0:7447".into()],
+            ..NetOptions::default()
+        };
+        let open = router_config(&options).unwrap();
+        assert_eq!(open_to_strangers(&open), ["tcp/0.0.0.0:7447"]);
+        options.users = Some(users);
+        assert!(open_to_strangers(&router_config(&options).unwrap()).is_empty());
+        options.users = Some(dir.join("missing.txt"));
+        let e = router_config(&options).unwrap_err().to_string();
+        assert!(e.contains("missing.txt"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn a_file_for_another_mode_is_refused_by_name() {
         let dir = std::env::temp_dir().join(format!("lander-mode-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
