@@ -1,9 +1,9 @@
 //! zenoh for workers on other hosts: the session configurations of the
 //! coordinator, the workers and `lander router`, which of their endpoints a
 //! stranger could join through, and the run's key expressions. Endpoints
-//! are explicit and scouting
-//! is off, so a session reaches only the hosts it is told of; shared memory
-//! is not compiled in, so queries never take zenoh's shared-memory path.
+//! are explicit and scouting is off, so a session reaches only the hosts it
+//! is told of; shared memory is not compiled in, so queries never take
+//! zenoh's shared-memory path.
 
 use std::path::{Path, PathBuf};
 use zenoh::Config;
