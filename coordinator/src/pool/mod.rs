@@ -76,6 +76,12 @@ pub trait Transport {
     /// What a spawned `lander-worker` needs on its command line to find
     /// this transport.
     fn worker_args(&self) -> Vec<String>;
+    /// How long, when the pool ends, to wait for workers told to leave to
+    /// be seen going, so that closing cannot overtake the message telling
+    /// them. Zero where a worker also learns it from the transport itself.
+    fn farewell(&self) -> Duration {
+        Duration::ZERO
+    }
     /// Tidies up when the pool ends.
     fn close(&mut self);
 }
@@ -595,8 +601,26 @@ impl<T: Transport> Drop for Pool<T> {
         for link in &self.links {
             link.shut_down();
         }
+        self.await_leaving(self.transport.farewell());
         self.children.stop_all();
         self.transport.close();
+    }
+}
+
+impl<T: Transport> Pool<T> {
+    /// Waits at most `grace` for every worker to be seen going.
+    fn await_leaving(&mut self, grace: Duration) {
+        let mut staying: HashSet<u64> = self.links.iter().map(WorkerLink::id).collect();
+        let end = Instant::now() + grace;
+        while !staying.is_empty() {
+            let left = end.saturating_duration_since(Instant::now());
+            if left.is_zero() || self.transport.sleep(left).is_err() {
+                break;
+            }
+            for id in self.transport.departures() {
+                staying.remove(&id);
+            }
+        }
     }
 }
 

@@ -169,6 +169,13 @@ impl Transport for Zenoh {
         self.worker_args.clone()
     }
 
+    /// A leave message is one put, which a router may still be forwarding
+    /// when the session closes; a worker whose coordinator token vanished
+    /// before it had seen it would then wait forever.
+    fn farewell(&self) -> Duration {
+        Duration::from_secs(2)
+    }
+
     fn close(&mut self) {
         let _ = self.session.close().wait();
     }
