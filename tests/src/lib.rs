@@ -39,10 +39,11 @@ pub fn binary(name: &str) -> PathBuf {
     BUILT.get_or_init(|| {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let mut cmd = Command::new(cargo);
-        // `--tests` builds the binaries as `cargo test --workspace` does,
-        // with the dev-dependencies' features; `--bins` would not, and
-        // would build a second zenoh.
-        cmd.args(["build", "--workspace", "--tests", "--quiet"]);
+        // `--bins` for the executables (`cargo test` builds only those of
+        // packages with integration tests); `--tests` so that they get the
+        // dev-dependencies' features as under `cargo test --workspace`, not
+        // a second zenoh.
+        cmd.args(["build", "--workspace", "--bins", "--tests", "--quiet"]);
         // cargo gives this test process its package's variables
         // (CARGO_MANIFEST_DIR, CARGO_PKG_NAME, …). ring's build script
         // reruns when they change, so passing them on would rebuild ring,
