@@ -660,20 +660,28 @@ fn exec_start(unit: &str, env: &BTreeMap<String, String>) -> Vec<String> {
     argv
 }
 
-#[test]
-fn the_systemd_worker_unit_serves_a_run() {
-    let unit = fs::read_to_string(deploy("systemd/lander-worker@.service")).unwrap();
-    for line in [
-        "EnvironmentFile=/etc/lander/worker.env",
-        "Restart=on-failure",
-        "NoNewPrivileges=yes",
-        "User=lander",
-    ] {
+/// Each of `lines` appears in the unit as a line of its own.
+fn assert_unit_has(unit: &str, lines: &[&str]) {
+    for line in lines {
         assert!(
-            unit.lines().any(|l| l.trim() == line),
+            unit.lines().any(|l| l.trim() == *line),
             "the unit lacks {line}"
         );
     }
+}
+
+#[test]
+fn the_systemd_worker_unit_serves_a_run() {
+    let unit = fs::read_to_string(deploy("systemd/lander-worker@.service")).unwrap();
+    assert_unit_has(
+        &unit,
+        &[
+            "EnvironmentFile=/etc/lander/worker.env",
+            "Restart=on-failure",
+            "NoNewPrivileges=yes",
+            "User=lander",
+        ],
+    );
     let exec = unit
         .lines()
         .find_map(|l| l.strip_prefix("ExecStart="))
@@ -955,17 +963,15 @@ fn the_router_unit_runs_lander_router_on_the_installed_config() {
             "/etc/lander/router.json5"
         ]
     );
-    for line in [
-        "Restart=on-failure",
-        "NoNewPrivileges=yes",
-        "DynamicUser=yes",
-        "WantedBy=multi-user.target",
-    ] {
-        assert!(
-            unit.lines().any(|l| l.trim() == line),
-            "the unit lacks {line}"
-        );
-    }
+    assert_unit_has(
+        &unit,
+        &[
+            "Restart=on-failure",
+            "NoNewPrivileges=yes",
+            "DynamicUser=yes",
+            "WantedBy=multi-user.target",
+        ],
+    );
     let readme = fs::read_to_string(deploy("README.md")).unwrap();
     for step in [
         "install -m 644 deploy/zenoh/router.json5 /etc/lander/",
