@@ -28,8 +28,11 @@ pub const ROOT_ENV: &str = "LANDER_IOX2_ROOT";
 /// The most workers one run takes.
 pub const MAX_WORKERS: usize = 128;
 
-/// Requests a coordinator may have outstanding at one worker.
-pub const MAX_QUEUED: usize = 4;
+/// Requests that may sit in one worker's queue at once: the chunks the
+/// coordinator waits for, plus chunks it took back for an idle worker that
+/// the worker has not reached yet. A request sent to a full queue would
+/// push out its oldest, so the coordinator keeps count of both.
+pub const MAX_QUEUED: usize = 8;
 
 /// Event ids on a worker's `jobs` service.
 pub const JOB_EVENT: usize = 1;

@@ -18,7 +18,7 @@ use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever any layout here changes.
-pub const PROTOCOL_VERSION: u32 = 2;
+pub const PROTOCOL_VERSION: u32 = 3;
 
 /// Job kinds.
 pub const KIND_EVALUATE: u32 = 0;

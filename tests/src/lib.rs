@@ -127,6 +127,14 @@ impl Iox {
     }
 
     /// `lander` with `args` in this namespace, run to completion.
+    /// Points this process's own iceoryx2 use at the test's resources, for
+    /// a test that opens a pool in-process. The environment is the
+    /// process's, so such a test needs a test file of its own.
+    pub fn enter(&self) {
+        std::env::set_var("LANDER_IOX2_PREFIX", &self.prefix);
+        std::env::set_var("LANDER_IOX2_ROOT", self.root.path());
+    }
+
     pub fn lander(&self, args: &[&str]) -> Output {
         self.command("lander")
             .args(args)

@@ -15,6 +15,9 @@ use lander_protocol::wire::{JobHeader, ResultHeader, WireGene, WorkerAnnounce};
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
+// Chunks taken back need room in a worker's queue beside the ones queued.
+const _: () = assert!(DEPTH < MAX_QUEUED);
+
 /// How often dead nodes are looked for.
 const REAP_EVERY: Duration = Duration::from_millis(500);
 
@@ -138,6 +141,11 @@ pub struct Link {
     jobs: Notifier<ipc::Service>,
     /// Oldest first; the worker answers in order.
     busy: VecDeque<InFlight>,
+    /// Jobs taken back that may still sit in the worker's queue, which the
+    /// worker skips when it reaches them. They take room there until an
+    /// answer to a later job shows the worker is past them: a full queue
+    /// would drop its oldest request.
+    passed_over: Vec<u64>,
     /// Requests sent since the worker was last notified.
     unannounced: bool,
     broken: bool,
@@ -166,6 +174,7 @@ impl Link {
             client,
             jobs,
             busy: VecDeque::new(),
+            passed_over: Vec::new(),
             unannounced: false,
             broken: false,
         })
@@ -183,7 +192,9 @@ impl WorkerLink for Link {
 
     /// True while the worker can queue another chunk.
     fn has_room(&self) -> bool {
-        self.busy.len() < DEPTH.min(MAX_QUEUED) && !self.broken
+        self.busy.len() < DEPTH
+            && self.busy.len() + self.passed_over.len() < MAX_QUEUED
+            && !self.broken
     }
 
     fn is_broken(&self) -> bool {
@@ -197,6 +208,21 @@ impl WorkerLink for Link {
     /// Gives up on the jobs in flight, returning them.
     fn abandon(&mut self) -> Vec<usize> {
         self.busy.drain(..).map(|f| f.job).collect()
+    }
+
+    fn in_flight(&self) -> usize {
+        self.busy.len()
+    }
+
+    /// Dropping the request's pending response tells the worker, which
+    /// skips a request no one waits for.
+    fn take_back(&mut self) -> Option<usize> {
+        if self.passed_over.len() >= MAX_QUEUED - DEPTH {
+            return None;
+        }
+        let flight = self.busy.pop_back()?;
+        self.passed_over.push(flight.job_id);
+        Some(flight.job)
     }
 
     /// Sends `genes` under `header` as the pool's job `job`.
@@ -273,6 +299,11 @@ impl WorkerLink for Link {
         let mut i = 0;
         while i < self.busy.len() {
             let flight = &self.busy[i];
+            // Read before receiving: a worker answers, then lets go of the
+            // request, so a request seen let go before a receive that finds
+            // nothing was truly never answered. Read after, a worker that
+            // answered between the two looks would look lost.
+            let connected = flight.pending.is_connected();
             let answer = match flight.pending.receive() {
                 Ok(Some(response)) => {
                     let h = response.user_header();
@@ -283,7 +314,7 @@ impl WorkerLink for Link {
                     };
                     check(flight.job_id, h, response.payload()).map(|body| (body, timing))
                 }
-                Ok(None) if flight.pending.is_connected() => {
+                Ok(None) if connected => {
                     i += 1;
                     continue;
                 }
@@ -292,8 +323,10 @@ impl WorkerLink for Link {
                     break;
                 }
             };
+            let job_id = flight.job_id;
             match answer {
                 Ok((body, timing)) => {
+                    self.passed_over.retain(|&skipped| skipped > job_id);
                     answered.push(Answer {
                         job: flight.job,
                         body,

@@ -4,7 +4,9 @@
 //!
 //! Each generation is split into chunks, several per worker, queued
 //! round-robin up to [`DEPTH`] per worker; any left over go to whichever
-//! worker has room first. The pool sleeps on its `wake` event between
+//! worker has room first. Once none is left to hand out, a worker that has
+//! answered everything takes the last queued chunk of a busy one
+//! (`Pool::rebalance`). The pool sleeps on its `wake` event between
 //! results, never spinning. A chunk whose worker dies (its
 //! process exits, its node is found dead, or its server disconnects) or
 //! misses its deadline goes back in the queue; a late duplicate is dropped
@@ -96,6 +98,14 @@ pub trait WorkerLink {
     fn deadline(&self) -> Option<Instant>;
     /// Gives up on the jobs in flight, returning them.
     fn abandon(&mut self) -> Vec<usize>;
+    /// Jobs sent and not yet answered.
+    fn in_flight(&self) -> usize;
+    /// Takes back the last job queued, one the worker has not started, so
+    /// that an idle worker can run it; `None` where the transport cannot
+    /// tell the worker to skip it, since it would then be flown twice.
+    fn take_back(&mut self) -> Option<usize> {
+        None
+    }
     /// Sends `genes` under `header` as the pool's job `job`; the worker
     /// may not look until [`WorkerLink::notify`].
     fn send(
@@ -162,6 +172,8 @@ pub struct Pool<T: Transport> {
     dropped: HashSet<u64>,
     children: Children,
     next_job: u64,
+    /// Chunks moved from a busy worker's queue to an idle worker.
+    taken_back: u64,
     told_waiting: bool,
     /// Kept only when asked for, so long runs do not accumulate them.
     timings: Option<Vec<ChunkTiming>>,
@@ -192,6 +204,7 @@ impl<T: Transport> Pool<T> {
             links: Vec::new(),
             dropped: HashSet::new(),
             next_job: 0,
+            taken_back: 0,
             told_waiting: false,
             timings: None,
             say,
@@ -225,6 +238,11 @@ impl<T: Transport> Pool<T> {
             self.sleep()?;
         }
         Ok(())
+    }
+
+    /// Chunks moved so far from a busy worker to an idle one.
+    pub fn taken_back(&self) -> u64 {
+        self.taken_back
     }
 
     /// Starts keeping the timing of every chunk answered.
@@ -432,6 +450,7 @@ impl<T: Transport> Pool<T> {
                 break;
             }
             todo.retain(|&j| done[j].is_none());
+            self.rebalance(jobs, &mut todo);
             self.dispatch(jobs, &mut todo);
             self.drop_links(&mut todo, |l| l.is_broken(), "disconnected");
             if self.links.is_empty() && self.children.is_empty() && self.opts.spawn > 0 {
@@ -447,28 +466,78 @@ impl<T: Transport> Pool<T> {
 }
 
 impl<T: Transport> Pool<T> {
+    /// Once nothing is left to hand out, gives each idle worker the last
+    /// queued chunk of the worker with the longest backlog. Chunks of one
+    /// generation cost unevenly (one lander crashes at once, another flies
+    /// its whole plan), so without this a worker that drew cheap chunks
+    /// would wait for one that drew dear ones.
+    fn rebalance(&mut self, jobs: &[Job], todo: &mut VecDeque<usize>) {
+        if !todo.is_empty() {
+            return;
+        }
+        for idle in 0..self.links.len() {
+            if self.links[idle].in_flight() > 0 || !self.links[idle].has_room() {
+                continue;
+            }
+            // Two or more in flight: one being flown, the last one queued.
+            let backlog = self
+                .links
+                .iter_mut()
+                .filter(|l| l.in_flight() >= 2)
+                .max_by_key(|l| l.in_flight());
+            let Some(job) = backlog.and_then(|l| l.take_back()) else {
+                break;
+            };
+            self.taken_back += 1;
+            self.hand(idle, jobs, job, todo);
+        }
+    }
+
     /// Sends queued jobs to workers with room, one per worker per pass, so
     /// that a generation of few chunks is spread over every worker rather
-    /// than queued at the first.
+    /// than queued at the first. Workers are told after the first pass, so
+    /// that their waking up overlaps the rest of the hand-out, and again
+    /// at the end.
     fn dispatch(&mut self, jobs: &[Job], todo: &mut VecDeque<usize>) {
         let mut sent = true;
+        let mut pass = 0;
         while sent && !todo.is_empty() {
+            if pass == 1 {
+                self.notify_all();
+            }
+            pass += 1;
             sent = false;
-            for link in self.links.iter_mut().filter(|l| l.has_room()) {
-                let Some(job) = todo.pop_front() else { break };
-                let mut header = jobs[job].header;
-                header.job_id = self.next_job;
-                self.next_job += 1;
-                let deadline = jobs[job].timed.then_some(self.opts.deadline);
-                match link.send(header, &jobs[job].genes, job, deadline) {
-                    Ok(()) => sent = true,
-                    Err(e) => {
-                        (self.say)(&format!("cannot send to worker {:016x}: {e}", link.id()));
-                        todo.push_front(job);
-                    }
+            for i in 0..self.links.len() {
+                if !self.links[i].has_room() {
+                    continue;
                 }
+                let Some(job) = todo.pop_front() else { break };
+                sent |= self.hand(i, jobs, job, todo);
             }
         }
+        self.notify_all();
+    }
+
+    /// Sends job `job` to link `i` under a fresh job id; if it cannot be
+    /// sent, the job goes back at the head of `todo`.
+    fn hand(&mut self, i: usize, jobs: &[Job], job: usize, todo: &mut VecDeque<usize>) -> bool {
+        let mut header = jobs[job].header;
+        header.job_id = self.next_job;
+        self.next_job += 1;
+        let deadline = jobs[job].timed.then_some(self.opts.deadline);
+        let link = &mut self.links[i];
+        match link.send(header, &jobs[job].genes, job, deadline) {
+            Ok(()) => true,
+            Err(e) => {
+                (self.say)(&format!("cannot send to worker {:016x}: {e}", link.id()));
+                todo.push_front(job);
+                false
+            }
+        }
+    }
+
+    /// Tells every worker about the jobs sent to it since it was last told.
+    fn notify_all(&mut self) {
         for link in &mut self.links {
             if let Err(e) = link.notify() {
                 // Its jobs go elsewhere when the broken link is dropped.
@@ -687,6 +756,12 @@ mod tests {
             fn abandon(&mut self) -> Vec<usize> {
                 std::mem::take(&mut self.jobs)
             }
+            fn in_flight(&self) -> usize {
+                self.jobs.len()
+            }
+            fn take_back(&mut self) -> Option<usize> {
+                self.jobs.pop()
+            }
             fn send(
                 &mut self,
                 _: JobHeader,
@@ -726,8 +801,7 @@ mod tests {
             fn close(&mut self) {}
         }
 
-        /// Which jobs each of `workers` links is sent, from `n` queued.
-        fn spread(workers: u64, n: usize) -> (Vec<Vec<usize>>, usize) {
+        fn pool(links: Vec<Vec<usize>>) -> Pool<Nowhere> {
             let opts = PoolOptions {
                 run_id: "t".into(),
                 spawn: 0,
@@ -738,19 +812,27 @@ mod tests {
                 pin: false,
             };
             let mut pool = Pool::with_transport(Nowhere, opts, Box::new(|_| ())).unwrap();
-            pool.links = (0..workers)
-                .map(|id| Recorder {
-                    id,
-                    jobs: Vec::new(),
-                })
+            pool.links = (0..)
+                .zip(links)
+                .map(|(id, jobs)| Recorder { id, jobs })
                 .collect();
-            let jobs: Vec<Job> = (0..n)
+            pool
+        }
+
+        fn no_jobs(n: usize) -> Vec<Job> {
+            (0..n)
                 .map(|_| Job {
                     header: JobHeader::default(),
                     genes: Vec::new(),
                     timed: true,
                 })
-                .collect();
+                .collect()
+        }
+
+        /// Which jobs each of `workers` links is sent, from `n` queued.
+        fn spread(workers: usize, n: usize) -> (Vec<Vec<usize>>, usize) {
+            let mut pool = pool(vec![Vec::new(); workers]);
+            let jobs = no_jobs(n);
             let mut todo: VecDeque<usize> = (0..n).collect();
             pool.dispatch(&jobs, &mut todo);
             let sent = pool.links.iter().map(|l| l.jobs.clone()).collect();
@@ -768,6 +850,38 @@ mod tests {
             assert_eq!(DEPTH, 4, "the cases below assume four queued per worker");
             assert_eq!(spread(2, 12), (vec![vec![0, 2, 4, 6], vec![1, 3, 5, 7]], 4));
             assert_eq!(spread(0, 3), (vec![], 3));
+        }
+
+        /// What each link holds after one rebalancing, and what is queued.
+        fn rebalanced(links: Vec<Vec<usize>>, todo: &[usize]) -> (Vec<Vec<usize>>, Vec<usize>) {
+            let mut pool = pool(links);
+            let jobs = no_jobs(6);
+            let mut todo: VecDeque<usize> = todo.iter().copied().collect();
+            pool.rebalance(&jobs, &mut todo);
+            let held = pool.links.iter().map(|l| l.jobs.clone()).collect();
+            (held, todo.into())
+        }
+
+        #[test]
+        fn an_idle_worker_takes_the_last_queued_chunk_of_the_busiest() {
+            assert_eq!(
+                rebalanced(vec![vec![], vec![1, 3], vec![0, 2, 4]], &[]),
+                (vec![vec![4], vec![1, 3], vec![0, 2]], vec![])
+            );
+            assert_eq!(
+                rebalanced(vec![vec![], vec![], vec![0, 2, 4]], &[]),
+                (vec![vec![4], vec![2], vec![0]], vec![])
+            );
+        }
+
+        #[test]
+        fn nothing_moves_while_chunks_wait_or_no_one_has_a_backlog() {
+            let waiting = rebalanced(vec![vec![], vec![0, 1, 2]], &[3]);
+            assert_eq!(waiting, (vec![vec![], vec![0, 1, 2]], vec![3]));
+            let flying = rebalanced(vec![vec![], vec![0], vec![1]], &[]);
+            assert_eq!(flying, (vec![vec![], vec![0], vec![1]], vec![]));
+            let busy = rebalanced(vec![vec![5], vec![0, 1, 2]], &[]);
+            assert_eq!(busy, (vec![vec![5], vec![0, 1, 2]], vec![]));
         }
     }
 

@@ -235,6 +235,10 @@ impl WorkerLink for Link {
         self.busy.drain(..).map(|f| f.job).collect()
     }
 
+    fn in_flight(&self) -> usize {
+        self.busy.len()
+    }
+
     fn send(
         &mut self,
         header: JobHeader,

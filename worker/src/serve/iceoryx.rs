@@ -25,7 +25,7 @@ pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcEr
         SignalHandlingMode::HandleTerminationRequests,
     )?;
     // Install the signal handler now, so SIGTERM while waiting ends cleanly.
-    if node.wait(Duration::ZERO).is_err() {
+    if terminated(&node, Duration::ZERO) {
         return Ok(Exit::Signal);
     }
     if !wait_for_run(&node, &names, &config, say)? {
@@ -69,6 +69,7 @@ pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcEr
     );
 
     let waitset = WaitSetBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
         .create::<ipc::Service>()
         .map_err(iox::fail("creating the wait set"))?;
     let job_guard = waitset
@@ -84,7 +85,7 @@ pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcEr
         *outcome.borrow_mut() = r;
         CallbackProgression::Stop
     };
-    let on_event = |attachment: WaitSetAttachmentId<ipc::Service>| {
+    let mut on_event = |attachment: WaitSetAttachmentId<ipc::Service>| {
         if attachment.has_event_from(&job_guard) {
             let shutdown = match shutdown_asked(&jobs) {
                 Ok(asked) => asked,
@@ -123,12 +124,21 @@ pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcEr
         }
         CallbackProgression::Continue
     };
-    let result = waitset
-        .wait_and_process(on_event)
-        .map_err(iox::fail("waiting for jobs"))?;
+    let result = loop {
+        match waitset
+            .wait_and_process(&mut on_event)
+            .map_err(iox::fail("waiting for jobs"))?
+        {
+            // A wait cut short by a signal that asks nothing of the worker,
+            // such as SIGCONT after a SIGSTOP; SIGTERM and SIGINT come back
+            // as a termination request.
+            WaitSetRunResult::Interrupt => continue,
+            other => break other,
+        }
+    };
     let exit = outcome.into_inner()?;
     Ok(exit.unwrap_or(match result {
-        WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt => Exit::Signal,
+        WaitSetRunResult::TerminationRequest => Exit::Signal,
         _ => Exit::RunFinished,
     }))
 }
@@ -141,6 +151,15 @@ fn shutdown_asked(
     jobs.try_wait(|ev| shutdown |= ev.id.as_value() == SHUTDOWN_EVENT)
         .map_err(iox::fail("reading job events"))?;
     Ok(shutdown)
+}
+
+/// Sleeps up to `timeout`; true if SIGTERM or SIGINT asked the worker to
+/// stop. Another signal only cuts the sleep short.
+fn terminated(node: &Node<ipc::Service>, timeout: Duration) -> bool {
+    matches!(
+        node.wait(timeout),
+        Err(iceoryx2::node::NodeWaitFailure::TerminationRequest)
+    )
 }
 
 /// Waits until the run's coordinator exists. False on a signal.
@@ -164,7 +183,7 @@ fn wait_for_run(
             );
             told = true;
         }
-        if node.wait(Duration::from_millis(200)).is_err() {
+        if terminated(node, Duration::from_millis(200)) {
             return Ok(false);
         }
     }
@@ -191,7 +210,14 @@ fn serve_waiting(
 ) -> Result<usize, IpcError> {
     let mut count = 0;
     while let Some(request) = server.receive().map_err(iox::fail("receiving a job"))? {
+        // The coordinator gave this chunk to an idle worker instead.
+        if !request.is_connected() {
+            continue;
+        }
         let (result, body) = answer(request.user_header(), request.payload(), id, say);
+        if !request.is_connected() {
+            continue;
+        }
         let mut response = request
             .loan_slice_uninit(body.len())
             .map_err(iox::fail("loaning a response"))?;
