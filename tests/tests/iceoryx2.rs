@@ -270,6 +270,40 @@ fn a_worker_for_a_missing_run_waits_and_says_so() {
 }
 
 #[test]
+fn a_worker_stopped_and_resumed_keeps_waiting_until_sigint() {
+    let iox = Iox::new("resumed");
+    let dir = tempfile::tempdir().unwrap();
+    let err = dir.path().join("stderr");
+    let mut worker = iox
+        .command("lander-worker")
+        .args(["--run", "notyet"])
+        .stderr(fs::File::create(&err).unwrap())
+        .spawn()
+        .unwrap();
+    let said = || fs::read_to_string(&err).unwrap_or_default();
+    assert!(
+        wait_until(10, || said().contains("waiting for run notyet")),
+        "{}",
+        said()
+    );
+    // A stop and a resume cut the worker's sleep short (EINTR); that is no
+    // reason to leave (Ctrl-Z and `fg` in its terminal do the same). The
+    // serving loop's wait is covered by tests/rebalance.rs.
+    signal(worker.id(), "STOP");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    signal(worker.id(), "CONT");
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    assert!(
+        worker.try_wait().unwrap().is_none(),
+        "the worker left after SIGCONT: {}",
+        said()
+    );
+    signal(worker.id(), "INT");
+    assert!(worker.wait().unwrap().success(), "{}", said());
+    assert!(said().contains("stopped by signal"), "{}", said());
+}
+
+#[test]
 fn bad_worker_options_are_refused() {
     let iox = Iox::new("badopts");
     for (args, needle) in [
