@@ -10,6 +10,7 @@ use crate::pool::{ChunkTiming, IpcPool, ZenohPool};
 use crate::trial::env;
 use lander_protocol::stream::streams;
 use lander_protocol::{Evaluation, Method, StreamKey};
+use lander_worker::cpu::thread_cpu_time;
 use serde::Serialize;
 use std::hash::{DefaultHasher, Hash, Hasher};
 use std::time::{Duration, Instant};
@@ -171,15 +172,6 @@ fn hash_results(h: &mut impl Hasher, evaluations: &[Evaluation], genomes: &[Geno
         (o.ticks, o.n, o.safe, o.touched_down, e.simulated_ticks).hash(h);
     }
     genomes.hash(h);
-}
-
-/// CPU time of the calling thread so far, from the kernel's scheduler
-/// statistics; zero where they are not available.
-fn thread_cpu_time() -> Duration {
-    std::fs::read_to_string("/proc/thread-self/schedstat")
-        .ok()
-        .and_then(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .map_or(Duration::ZERO, Duration::from_nanos)
 }
 
 /// One mode's figures, as `lander bench --json` prints them.

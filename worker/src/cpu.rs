@@ -1,5 +1,6 @@
 //! Where worker processes run: the CPUs this process may use, pinning to
-//! one of them, and the batch scheduling class.
+//! one of them, and the batch scheduling class; and a thread's CPU time,
+//! which `lander bench` reports.
 //!
 //! Both matter on small machines. Without pinning, the scheduler places a
 //! woken worker near the coordinator that woke it, so at the start of a
@@ -10,6 +11,7 @@
 //! coordinator finishes handing out a generation before anyone computes.
 
 use std::io;
+use std::time::Duration;
 
 /// The CPUs this process may run on, in order; empty if unknown.
 pub fn allowed_cpus() -> Vec<usize> {
@@ -59,9 +61,37 @@ pub fn run_as_batch_job() -> io::Result<()> {
     Ok(())
 }
 
+/// CPU time the calling thread has used so far; zero if the clock cannot
+/// be read. Exact to the call, unlike /proc's schedstat, which lags for a
+/// running thread.
+pub fn thread_cpu_time() -> Duration {
+    let mut t = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime writes one timespec into `t`.
+    if unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) } != 0 {
+        return Duration::ZERO;
+    }
+    Duration::new(t.tv_sec as u64, t.tv_nsec as u32)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_busy_thread_uses_cpu_time_and_a_sleeping_one_does_not() {
+        let start = thread_cpu_time();
+        let mut x = 0u64;
+        while thread_cpu_time() - start < Duration::from_millis(5) {
+            x = std::hint::black_box(x.wrapping_add(1));
+        }
+        let busy = thread_cpu_time();
+        assert!(busy - start >= Duration::from_millis(5));
+        std::thread::sleep(Duration::from_millis(50));
+        assert!(thread_cpu_time() - busy < Duration::from_millis(20));
+    }
 
     #[test]
     fn this_process_may_run_somewhere() {
