@@ -639,9 +639,20 @@ fn chunk_job(batch: &Batch<'_>, range: Range<usize>, length: usize) -> Job {
             guide: batch.guide,
             ..JobHeader::default()
         },
-        genes: genomes.iter().flatten().map(|&g| g.into()).collect(),
+        genes: wire_genes(genomes, length),
         timed: true,
     }
+}
+
+/// The genes of `genomes`, each `length` long, end to end. Genome by genome
+/// rather than through one flattening iterator, which the compiler cannot
+/// vectorise: this runs for every genome of every generation.
+fn wire_genes(genomes: &[crate::ga::Genome], length: usize) -> Vec<WireGene> {
+    let mut genes = Vec::with_capacity(genomes.len() * length);
+    for genome in genomes {
+        genes.extend(genome.iter().map(|&g| WireGene::from(g)));
+    }
+    genes
 }
 
 /// Puts the chunks' results in population order and writes the guided
@@ -653,9 +664,9 @@ fn assemble(
     let mut out = Vec::with_capacity(genomes.len());
     for (range, result) in results {
         let chunk = &mut genomes[range.clone()];
-        if !result.actions.is_empty() {
-            let genes = chunk.iter_mut().flat_map(|g| g.iter_mut());
-            for (gene, &a) in genes.zip(&result.actions) {
+        let length = chunk.first().map_or(0, Vec::len).max(1);
+        for (genome, actions) in chunk.iter_mut().zip(result.actions.chunks(length)) {
+            for (gene, &a) in genome.iter_mut().zip(actions) {
                 // Checked on decoding: every action is 0..=3.
                 gene.action = Action::from_index(a).unwrap_or(gene.action);
             }
