@@ -126,7 +126,6 @@ impl Iox {
         cmd
     }
 
-    /// `lander` with `args` in this namespace, run to completion.
     /// Points this process's own iceoryx2 use at the test's resources, for
     /// a test that opens a pool in-process. The environment is the
     /// process's, so such a test needs a test file of its own.
@@ -135,6 +134,7 @@ impl Iox {
         std::env::set_var("LANDER_IOX2_ROOT", self.root.path());
     }
 
+    /// `lander` with `args` in this namespace, run to completion.
     pub fn lander(&self, args: &[&str]) -> Output {
         self.command("lander")
             .args(args)

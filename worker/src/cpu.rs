@@ -1,8 +1,8 @@
 //! Where worker processes run: the CPUs this process may use, pinning to
-//! one of them, and the batch scheduling class; and a thread's CPU time,
+//! one of them, and the batch scheduling class. Also a thread's CPU time,
 //! which `lander bench` reports.
 //!
-//! Both matter on small machines. Without pinning, the scheduler places a
+//! Pinning and the batch class both matter on small machines. Without pinning, the scheduler places a
 //! woken worker near the coordinator that woke it, so at the start of a
 //! generation two workers can end up taking turns on one core while the
 //! other idles (measured on the 2-core development VM: the second chunk of
