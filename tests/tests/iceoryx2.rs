@@ -243,23 +243,31 @@ fn attached_workers_may_leave_mid_run() {
     );
 }
 
+/// Starts a worker for `run`, which no coordinator has started, and waits
+/// until it says it is waiting. Returns it and what it says so far, read
+/// again on each call, from a file in `dir`.
+fn waiting_worker(iox: &Iox, dir: &Path, run: &str) -> (Child, impl Fn() -> String) {
+    let err = dir.join("stderr");
+    let child = iox
+        .command("lander-worker")
+        .args(["--run", run])
+        .stderr(fs::File::create(&err).unwrap())
+        .spawn()
+        .unwrap();
+    let said = move || fs::read_to_string(&err).unwrap_or_default();
+    assert!(
+        wait_until(10, || said().contains(&format!("waiting for run {run}"))),
+        "{}",
+        said()
+    );
+    (child, said)
+}
+
 #[test]
 fn a_worker_for_a_missing_run_waits_and_says_so() {
     let iox = Iox::new("missing");
     let dir = tempfile::tempdir().unwrap();
-    let err = dir.path().join("stderr");
-    let child = iox
-        .command("lander-worker")
-        .args(["--run", "nosuchrun"])
-        .stderr(fs::File::create(&err).unwrap())
-        .spawn()
-        .unwrap();
-    let said = || fs::read_to_string(&err).unwrap_or_default();
-    assert!(
-        wait_until(10, || said().contains("waiting for run nosuchrun")),
-        "{}",
-        said()
-    );
+    let (child, _) = waiting_worker(&iox, dir.path(), "nosuchrun");
     std::thread::sleep(std::time::Duration::from_millis(300));
     signal(child.id(), "TERM");
     let status = child.wait_with_output().unwrap().status;
@@ -273,19 +281,7 @@ fn a_worker_for_a_missing_run_waits_and_says_so() {
 fn a_worker_stopped_and_resumed_keeps_waiting_until_sigint() {
     let iox = Iox::new("resumed");
     let dir = tempfile::tempdir().unwrap();
-    let err = dir.path().join("stderr");
-    let mut worker = iox
-        .command("lander-worker")
-        .args(["--run", "notyet"])
-        .stderr(fs::File::create(&err).unwrap())
-        .spawn()
-        .unwrap();
-    let said = || fs::read_to_string(&err).unwrap_or_default();
-    assert!(
-        wait_until(10, || said().contains("waiting for run notyet")),
-        "{}",
-        said()
-    );
+    let (mut worker, said) = waiting_worker(&iox, dir.path(), "notyet");
     // A stop and a resume cut the worker's sleep short (EINTR); that is no
     // reason to leave (Ctrl-Z and `fg` in its terminal do the same). The
     // serving loop's wait is covered by tests/rebalance.rs.
