@@ -12,6 +12,7 @@ use lander_protocol::stream::streams;
 use lander_protocol::{Evaluation, Method, StreamKey};
 use lander_worker::cpu::thread_cpu_time;
 use serde::Serialize;
+use std::collections::HashMap;
 use std::hash::{DefaultHasher, Hash, Hasher};
 use std::time::{Duration, Instant};
 
@@ -88,6 +89,8 @@ pub struct Tally {
     pub coordinator_cpu: Duration,
     pub generations: u64,
     pub timings: Vec<ChunkTiming>,
+    /// One per generation evaluated by worker processes.
+    pub breakdowns: Vec<Breakdown>,
     pub hash: Option<u64>,
     pub consistent: bool,
 }
@@ -125,17 +128,20 @@ impl Mode {
             max_duration: work.cfg.ga.max_duration,
             genomes: &mut genomes,
         })?;
-        self.tally.elapsed += started.elapsed();
+        let wall = started.elapsed();
+        self.tally.elapsed += wall;
         self.tally.coordinator_cpu += thread_cpu_time().saturating_sub(cpu);
         self.tally.generations += 1;
         self.tally.genomes += evaluations.len() as u64;
         self.tally.ticks += evaluations.iter().map(|e| e.simulated_ticks).sum::<u64>();
         hash_results(&mut self.hasher, &evaluations, &genomes);
-        match &mut self.evaluator {
-            ModeEvaluator::Iceoryx2(pool) => self.tally.timings.extend(pool.take_timings()),
-            ModeEvaluator::Zenoh(pool) => self.tally.timings.extend(pool.take_timings()),
-            ModeEvaluator::InProcess(_) => {}
-        }
+        let timings = match &mut self.evaluator {
+            ModeEvaluator::Iceoryx2(pool) => pool.take_timings(),
+            ModeEvaluator::Zenoh(pool) => pool.take_timings(),
+            ModeEvaluator::InProcess(_) => Vec::new(),
+        };
+        self.tally.breakdowns.extend(Breakdown::of(&timings, wall));
+        self.tally.timings.extend(timings);
         Ok(())
     }
 
@@ -184,12 +190,13 @@ pub struct ModeReport {
     pub rtt_p50_us: Option<f64>,
     pub rtt_p99_us: Option<f64>,
     pub rtt_max_us: Option<f64>,
-    /// The p99 of round trip minus the worker's compute time, over chunks
-    /// that did not queue behind another at their worker.
+    /// The p99 of round trip minus compute: see [`overheads`].
     pub overhead_p99_us: Option<f64>,
     pub coordinator_cpu_us_per_generation: f64,
     /// Share of the workers' time spent computing, for worker processes.
     pub worker_utilisation: Option<f64>,
+    /// Where a generation's time went, on average, for worker processes.
+    pub generation: Option<Breakdown>,
     pub hash: String,
 }
 
@@ -198,14 +205,9 @@ impl Mode {
         let t = &self.tally;
         let secs = t.elapsed.as_secs_f64().max(f64::MIN_POSITIVE);
         let micros = |d: Duration| d.as_secs_f64() * 1e6;
-        let mut rtt: Vec<Duration> = t.timings.iter().map(|c| c.round_trip).collect();
-        let mut overhead: Vec<Duration> = t
-            .timings
-            .iter()
-            .filter(|c| !c.queued)
-            .map(|c| c.round_trip.saturating_sub(c.compute))
-            .collect();
-        let compute: Duration = t.timings.iter().map(|c| c.compute).sum();
+        let mut rtt: Vec<Duration> = t.timings.iter().map(ChunkTiming::round_trip).collect();
+        let mut overhead = overheads(&t.timings);
+        let compute: Duration = t.timings.iter().map(ChunkTiming::compute).sum();
         let workers = self.evaluator.workers();
         ModeReport {
             name: self.name.clone(),
@@ -220,9 +222,119 @@ impl Mode {
                 / t.generations.max(1) as f64,
             worker_utilisation: (!t.timings.is_empty())
                 .then(|| compute.as_secs_f64() / (secs * workers.max(1) as f64)),
+            generation: Breakdown::mean(&t.breakdowns),
             hash: t.hash.map_or_else(String::new, |h| format!("{h:016x}")),
         }
     }
+}
+
+/// Where one generation's wall time went over worker processes, in µs.
+/// Each worker's time from the first request sent to the last answer read
+/// is its start, compute, time between chunks, waiting and the tail; each
+/// part here is its mean over the workers, so the parts add up to the wall
+/// time. From the chunks' stamps: one host.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Breakdown {
+    pub wall_us: f64,
+    /// The coordinator alone: building the requests before the first is
+    /// sent, and decoding and placing answers after the last is read.
+    pub coordinator_us: f64,
+    /// From the first request sent to the worker starting its first chunk:
+    /// the rest of the hand-out and the worker's waking.
+    pub start_us: f64,
+    pub compute_us: f64,
+    /// Between a worker's chunks: answering one and taking the next, or
+    /// sleeping until a chunk taken back from another worker arrives.
+    pub between_us: f64,
+    /// Done, while the last worker still computes: the imbalance.
+    pub waiting_us: f64,
+    /// From the last chunk finished to its answer read: telling and waking
+    /// the coordinator.
+    pub tail_us: f64,
+}
+
+impl Breakdown {
+    /// The breakdown of a generation whose chunks went as `timings` and
+    /// whose evaluation took `wall`; `None` for no chunks.
+    pub fn of(timings: &[ChunkTiming], wall: Duration) -> Option<Breakdown> {
+        let first_sent = timings.iter().map(|t| t.sent_ns).min()?;
+        let last_read = timings.iter().map(|t| t.read_ns).max()?;
+        let last_finished = timings.iter().map(|t| t.finished_ns).max()?;
+        let mut workers: HashMap<u64, (u64, u64, u64)> = HashMap::new();
+        for t in timings {
+            let (first, last, busy) = workers.entry(t.worker).or_insert((u64::MAX, 0, 0));
+            *first = (*first).min(t.started_ns);
+            *last = (*last).max(t.finished_ns);
+            *busy += t.finished_ns.saturating_sub(t.started_ns);
+        }
+        let n = workers.len() as f64;
+        let mean = |part: &dyn Fn(&(u64, u64, u64)) -> u64| {
+            workers.values().map(|w| part(w) as f64).sum::<f64>() / n / 1e3
+        };
+        let span = last_read.saturating_sub(first_sent) as f64 / 1e3;
+        Some(Breakdown {
+            wall_us: wall.as_secs_f64() * 1e6,
+            coordinator_us: wall.as_secs_f64() * 1e6 - span,
+            start_us: mean(&|&(first, _, _)| first.saturating_sub(first_sent)),
+            compute_us: mean(&|&(_, _, busy)| busy),
+            between_us: mean(&|&(first, last, busy)| {
+                last.saturating_sub(first).saturating_sub(busy)
+            }),
+            waiting_us: mean(&|&(_, last, _)| last_finished - last),
+            tail_us: last_read.saturating_sub(last_finished) as f64 / 1e3,
+        })
+    }
+
+    /// The mean of `all`, part by part; `None` for none.
+    pub fn mean(all: &[Breakdown]) -> Option<Breakdown> {
+        let n = all.len() as f64;
+        let part = |f: fn(&Breakdown) -> f64| all.iter().map(f).sum::<f64>() / n;
+        (!all.is_empty()).then(|| Breakdown {
+            wall_us: part(|b| b.wall_us),
+            coordinator_us: part(|b| b.coordinator_us),
+            start_us: part(|b| b.start_us),
+            compute_us: part(|b| b.compute_us),
+            between_us: part(|b| b.between_us),
+            waiting_us: part(|b| b.waiting_us),
+            tail_us: part(|b| b.tail_us),
+        })
+    }
+}
+
+/// Each chunk's round trip minus all its worker computed meanwhile: the
+/// chunk itself, a chunk queued ahead of it, and the chunks after it that
+/// the worker finished before waking the coordinator (it wakes it once it
+/// has answered all it holds). What is left is the hand-out, the
+/// wake-ups, the transport and the coordinator's reading of the answer.
+/// Needs the worker's stamps on the coordinator's clock: one host.
+pub fn overheads(timings: &[ChunkTiming]) -> Vec<Duration> {
+    let mut by_worker: HashMap<u64, Vec<&ChunkTiming>> = HashMap::new();
+    for t in timings {
+        by_worker.entry(t.worker).or_default().push(t);
+    }
+    for runs in by_worker.values_mut() {
+        // A worker runs one job at a time, so its jobs sorted by start are
+        // sorted by finish too.
+        runs.sort_unstable_by_key(|r| r.started_ns);
+    }
+    timings
+        .iter()
+        .map(|chunk| {
+            let runs = &by_worker[&chunk.worker];
+            let first = runs.partition_point(|r| r.finished_ns <= chunk.sent_ns);
+            let busy: u64 = runs[first..]
+                .iter()
+                .take_while(|r| r.started_ns < chunk.read_ns)
+                .map(|r| {
+                    let start = r.started_ns.max(chunk.sent_ns);
+                    r.finished_ns.min(chunk.read_ns).saturating_sub(start)
+                })
+                .sum();
+            chunk
+                .round_trip()
+                .saturating_sub(Duration::from_nanos(busy))
+        })
+        .collect()
 }
 
 /// The `q` quantile by the nearest-rank method; `None` for no samples.
@@ -238,6 +350,78 @@ pub fn percentile(samples: &mut [Duration], q: f64) -> Option<Duration> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn timing(worker: u64, sent: u64, read: u64, started: u64, finished: u64) -> ChunkTiming {
+        ChunkTiming {
+            worker,
+            sent_ns: sent,
+            read_ns: read,
+            started_ns: started,
+            finished_ns: finished,
+        }
+    }
+
+    #[test]
+    fn overhead_leaves_out_everything_the_worker_computed_meanwhile() {
+        // Worker 1 holds three chunks sent at 0, 10 and 20, runs them over
+        // 50..150, 150..250 and 250..300, and wakes the coordinator, which
+        // reads all three at 340. Worker 2's chunk, sent at 30, runs over
+        // 60..260 and is read at 280; it takes nothing off worker 1's.
+        let t = [
+            timing(1, 0, 340, 50, 150),
+            timing(1, 10, 340, 150, 250),
+            timing(1, 20, 340, 250, 300),
+            timing(2, 30, 280, 60, 260),
+        ];
+        let us = |v: u64| Duration::from_nanos(v);
+        // Round trips 340, 330, 320 and 250, less 250, 250, 250 and 200.
+        assert_eq!(overheads(&t), [us(90), us(80), us(70), us(50)]);
+    }
+
+    #[test]
+    fn a_chunk_sent_while_another_runs_counts_only_the_part_after_sending() {
+        // Sent at 100 while the worker runs 0..150; runs itself 150..200.
+        let t = [timing(1, 0, 210, 0, 150), timing(1, 100, 210, 150, 200)];
+        let ns = Duration::from_nanos;
+        assert_eq!(overheads(&t), [ns(210 - 200), ns(110 - 100)]);
+    }
+
+    #[test]
+    fn a_generations_parts_add_up_to_its_wall_time() {
+        // The case above, evaluated in 400 ns: worker 1 starts 50 after the
+        // first send, computes 250 with no gap, finishes last at 300; worker
+        // 2 starts at 60, computes 200, finishes at 260 and waits 40. The
+        // last answer is read 40 after the last finish.
+        let t = [
+            timing(1, 0, 340, 50, 150),
+            timing(1, 10, 340, 150, 250),
+            timing(1, 20, 340, 250, 300),
+            timing(2, 30, 280, 60, 260),
+        ];
+        let b = Breakdown::of(&t, Duration::from_nanos(400)).unwrap();
+        let close = |got: f64, want_ns: f64| (got - want_ns / 1e3).abs() < 1e-9;
+        assert!(close(b.wall_us, 400.0), "{b:?}");
+        assert!(close(b.coordinator_us, 400.0 - 340.0), "{b:?}");
+        assert!(close(b.start_us, (50.0 + 60.0) / 2.0), "{b:?}");
+        assert!(close(b.compute_us, (250.0 + 200.0) / 2.0), "{b:?}");
+        assert!(close(b.between_us, 0.0), "{b:?}");
+        assert!(close(b.waiting_us, (0.0 + 40.0) / 2.0), "{b:?}");
+        assert!(close(b.tail_us, 40.0), "{b:?}");
+        let sum =
+            b.coordinator_us + b.start_us + b.compute_us + b.between_us + b.waiting_us + b.tail_us;
+        assert!(close(sum, 400.0), "{b:?}");
+        assert_eq!(Breakdown::of(&[], Duration::from_nanos(400)), None);
+    }
+
+    #[test]
+    fn a_gap_between_chunks_is_counted_as_such() {
+        // One worker: 10..20, then idle until 50, then 50..70; read at 80.
+        let t = [timing(7, 0, 80, 10, 20), timing(7, 5, 80, 50, 70)];
+        let b = Breakdown::of(&t, Duration::from_nanos(90)).unwrap();
+        assert!((b.between_us - 0.030).abs() < 1e-9, "{b:?}");
+        assert!((b.tail_us - 0.010).abs() < 1e-9, "{b:?}");
+        assert!((b.coordinator_us - 0.010).abs() < 1e-9, "{b:?}");
+    }
 
     #[test]
     fn nearest_rank_percentiles() {

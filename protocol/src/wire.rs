@@ -18,7 +18,7 @@ use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever any layout here changes.
-pub const PROTOCOL_VERSION: u32 = 3;
+pub const PROTOCOL_VERSION: u32 = 4;
 
 /// Job kinds.
 pub const KIND_EVALUATE: u32 = 0;
@@ -90,9 +90,13 @@ pub struct ResultHeader {
     pub status: u32,
     pub job_id: u64,
     pub worker_id: u64,
-    /// Nanoseconds the worker spent on the job, so the coordinator can tell
-    /// transport overhead from computation.
-    pub compute_ns: u64,
+    /// When the worker started and finished the job, in nanoseconds of
+    /// its host's monotonic clock. Their difference is the job's compute
+    /// time wherever the worker runs; on one host the coordinator can also
+    /// place them on its own clock, and tell transport overhead from
+    /// computation chunk by chunk (`lander bench`).
+    pub started_ns: u64,
+    pub finished_ns: u64,
 }
 
 /// A worker's announcement that it is ready to serve a run.

@@ -361,6 +361,21 @@ fn bench_compares_the_modes_and_their_results_agree() {
         let ipc = m["name"].as_str().unwrap().starts_with("iceoryx2");
         assert_eq!(m["rtt_p50_us"].is_number(), ipc, "{m}");
         assert_eq!(m["rtt_p99_us"].is_number(), ipc, "{m}");
+        assert_eq!(m["generation"].is_object(), ipc, "{m}");
+        if ipc {
+            // Each chunk's overhead is at most its round trip, so the p99s
+            // keep that order; workers' stamps are on this host's clock.
+            let f = |k: &str| m[k].as_f64().unwrap();
+            assert!(f("overhead_p99_us") <= f("rtt_p99_us"), "{m}");
+            let g = |k: &str| m["generation"][k].as_f64().unwrap();
+            let parts = ["coordinator_us", "start_us", "compute_us"]
+                .into_iter()
+                .chain(["between_us", "waiting_us", "tail_us"]);
+            let sum: f64 = parts.clone().map(g).sum();
+            assert!((sum - g("wall_us")).abs() < 1e-6 * g("wall_us"), "{m}");
+            assert!(parts.map(g).all(|v| v >= 0.0), "{m}");
+            assert!(g("compute_us") > 0.0, "{m}");
+        }
     }
     assert!(report["ratios"]["scaling"].as_f64().unwrap() > 0.0);
     assert!(report["ratios"]["ipc_efficiency"].as_f64().unwrap() > 0.0);

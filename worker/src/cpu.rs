@@ -1,6 +1,7 @@
 //! Where worker processes run: the CPUs this process may use, pinning to
-//! one of them, and the batch scheduling class. Also a thread's CPU time,
-//! which `lander bench` reports.
+//! one of them, and the batch scheduling class. Also the two clocks
+//! `lander bench` reads: a thread's CPU time, and the host's monotonic
+//! clock, in which workers stamp their results.
 //!
 //! Pinning and the batch class both matter on small machines. Without pinning, the scheduler places a
 //! woken worker near the coordinator that woke it, so at the start of a
@@ -76,6 +77,21 @@ pub fn thread_cpu_time() -> Duration {
     Duration::new(t.tv_sec as u64, t.tv_nsec as u32)
 }
 
+/// The host's monotonic clock in nanoseconds: one clock for every process
+/// on the host, unlike [`std::time::Instant`], which cannot be sent to
+/// another process. Zero if the clock cannot be read.
+pub fn host_clock_ns() -> u64 {
+    let mut t = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime writes one timespec into `t`.
+    if unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut t) } != 0 {
+        return 0;
+    }
+    t.tv_sec as u64 * 1_000_000_000 + t.tv_nsec as u64
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -91,6 +107,19 @@ mod tests {
         assert!(busy - start >= Duration::from_millis(5));
         std::thread::sleep(Duration::from_millis(50));
         assert!(thread_cpu_time() - busy < Duration::from_millis(20));
+    }
+
+    #[test]
+    fn the_host_clock_moves_with_instant() {
+        let (clock, instant) = (host_clock_ns(), std::time::Instant::now());
+        std::thread::sleep(Duration::from_millis(20));
+        let (clock2, elapsed) = (host_clock_ns(), instant.elapsed());
+        let moved = Duration::from_nanos(clock2 - clock);
+        assert!(moved >= Duration::from_millis(20), "{moved:?}");
+        assert!(
+            moved.abs_diff(elapsed) < Duration::from_millis(5),
+            "{moved:?} vs {elapsed:?}"
+        );
     }
 
     #[test]

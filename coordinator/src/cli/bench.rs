@@ -259,6 +259,7 @@ fn print_table(r: &Report) {
                 .map_or("-".into(), |u| format!("{:.0}%", u * 100.0)),
         );
     }
+    print_breakdowns(r);
     let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}×"));
     println!(
         "scaling (iceoryx2-{n} / iceoryx2-1): {}   ipc efficiency (iceoryx2-{n} / inproc-{n}): {}   \
@@ -269,4 +270,34 @@ fn print_table(r: &Report) {
         r.hashes_agree,
         n = r.workers
     );
+}
+
+/// Where a generation's time went, for the modes over worker processes.
+fn print_breakdowns(r: &Report) {
+    let rows: Vec<_> = r
+        .modes
+        .iter()
+        .filter_map(|m| Some((&m.name, m.generation?)))
+        .collect();
+    if rows.is_empty() {
+        return;
+    }
+    println!("a generation, mean µs (each worker's parts add up to the wall time; the mean over workers):");
+    println!(
+        "{:<12} {:>8} {:>11} {:>8} {:>8} {:>8} {:>8} {:>8}",
+        "mode", "wall", "coordinator", "start", "compute", "between", "waiting", "tail"
+    );
+    for (name, b) in rows {
+        println!(
+            "{:<12} {:>8.0} {:>11.0} {:>8.0} {:>8.0} {:>8.0} {:>8.0} {:>8.0}",
+            name,
+            b.wall_us,
+            b.coordinator_us,
+            b.start_us,
+            b.compute_us,
+            b.between_us,
+            b.waiting_us,
+            b.tail_us
+        );
+    }
 }

@@ -12,6 +12,7 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use lander_protocol::iox::{self, IpcError, RunNames, JOB_EVENT, MAX_QUEUED, SHUTDOWN_EVENT};
 use lander_protocol::wire::{JobHeader, ResultHeader, WireGene, WorkerAnnounce};
+use lander_worker::cpu::host_clock_ns;
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
@@ -128,9 +129,8 @@ struct InFlight {
     /// The pool's index of the job.
     job: usize,
     pending: Pending,
-    sent: Instant,
-    /// Whether another chunk was ahead of it at the worker.
-    queued: bool,
+    /// On the host's clock.
+    sent_ns: u64,
     deadline: Option<Instant>,
 }
 
@@ -233,6 +233,7 @@ impl WorkerLink for Link {
         job: usize,
         deadline: Option<Duration>,
     ) -> Result<(), String> {
+        let sent_ns = host_clock_ns();
         let sent = (|| {
             let mut request = self
                 .client
@@ -254,14 +255,12 @@ impl WorkerLink for Link {
         match sent {
             Ok(pending) => {
                 let now = Instant::now();
-                let queued = !self.busy.is_empty();
                 self.unannounced = true;
                 self.busy.push_back(InFlight {
                     job_id: header.job_id,
                     job,
                     pending,
-                    sent: now,
-                    queued,
+                    sent_ns,
                     deadline: deadline.map(|d| now + d),
                 });
                 Ok(())
@@ -307,11 +306,7 @@ impl WorkerLink for Link {
             let answer = match flight.pending.receive() {
                 Ok(Some(response)) => {
                     let h = response.user_header();
-                    let timing = ChunkTiming {
-                        round_trip: flight.sent.elapsed(),
-                        compute: Duration::from_nanos(h.compute_ns),
-                        queued: flight.queued,
-                    };
+                    let timing = ChunkTiming::read_now(self.id, flight.sent_ns, h);
                     check(flight.job_id, h, response.payload()).map(|body| (body, timing))
                 }
                 Ok(None) if connected => {

@@ -23,6 +23,7 @@ use lander_protocol::wire::{
     KIND_EVALUATE, KIND_TRAIN, PROTOCOL_VERSION,
 };
 use lander_protocol::{Action, Evaluation, TrainResult};
+use lander_worker::cpu::host_clock_ns;
 pub use spawn::worker_children;
 use spawn::Children;
 use std::collections::{HashSet, VecDeque};
@@ -53,16 +54,45 @@ pub struct Answer {
     pub timing: ChunkTiming,
 }
 
-/// How long a chunk took, seen from both ends.
-#[derive(Clone, Copy, Debug)]
+/// How a chunk went, seen from both ends, in nanoseconds of the host's
+/// monotonic clock ([`host_clock_ns`]). The worker's two stamps are on the
+/// coordinator's clock only when both run on one host.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ChunkTiming {
+    /// The worker that answered.
+    pub worker: u64,
+    /// The coordinator sent the request.
+    pub sent_ns: u64,
+    /// The coordinator read the answer.
+    pub read_ns: u64,
+    /// The worker started the job.
+    pub started_ns: u64,
+    /// The worker finished the job.
+    pub finished_ns: u64,
+}
+
+impl ChunkTiming {
+    /// The timing of an answer under `h` read now, to a request sent to
+    /// `worker` at `sent_ns`.
+    pub fn read_now(worker: u64, sent_ns: u64, h: &ResultHeader) -> ChunkTiming {
+        ChunkTiming {
+            worker,
+            sent_ns,
+            read_ns: host_clock_ns(),
+            started_ns: h.started_ns,
+            finished_ns: h.finished_ns,
+        }
+    }
+
     /// From sending the request to reading the answer.
-    pub round_trip: Duration,
+    pub fn round_trip(&self) -> Duration {
+        Duration::from_nanos(self.read_ns.saturating_sub(self.sent_ns))
+    }
+
     /// The worker's own time on the job.
-    pub compute: Duration,
-    /// Whether the chunk waited behind another at the worker, which then
-    /// counts in its round trip.
-    pub queued: bool,
+    pub fn compute(&self) -> Duration {
+        Duration::from_nanos(self.finished_ns.saturating_sub(self.started_ns))
+    }
 }
 
 /// How a transport finds its workers and waits for them.

@@ -10,6 +10,7 @@ use crate::evaluator::EvalError;
 use lander_protocol::envelope::{decode_result, encode_job};
 use lander_protocol::net::{self, coordinator_config, NetError, NetOptions, RunKeys};
 use lander_protocol::wire::{JobHeader, WireGene};
+use lander_worker::cpu::host_clock_ns;
 use std::collections::VecDeque;
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
 use std::sync::{Arc, Mutex};
@@ -193,8 +194,8 @@ struct InFlight {
     job_id: u64,
     job: usize,
     slot: Arc<Mutex<Slot>>,
-    sent: Instant,
-    queued: bool,
+    /// On the host's clock.
+    sent_ns: u64,
     deadline: Option<Instant>,
 }
 
@@ -246,6 +247,7 @@ impl WorkerLink for Link {
         job: usize,
         deadline: Option<Duration>,
     ) -> Result<(), String> {
+        let sent_ns = host_clock_ns();
         let slot = Arc::new(Mutex::new(Slot::default()));
         let (on_reply, on_end) = (slot.clone(), slot.clone());
         let (bell, bell_end) = (self.bell.clone(), self.bell.clone());
@@ -283,13 +285,11 @@ impl WorkerLink for Link {
             return Err(format!("sending a query: {e}"));
         }
         let now = Instant::now();
-        let queued = !self.busy.is_empty();
         self.busy.push_back(InFlight {
             job_id: header.job_id,
             job,
             slot,
-            sent: now,
-            queued,
+            sent_ns,
             deadline: deadline.map(|d| now + d),
         });
         Ok(())
@@ -309,11 +309,7 @@ impl WorkerLink for Link {
                     decode_result(&frame)
                         .map_err(|e| e.to_string())
                         .and_then(|(h, body)| {
-                            let timing = ChunkTiming {
-                                round_trip: flight.sent.elapsed(),
-                                compute: Duration::from_nanos(h.compute_ns),
-                                queued: flight.queued,
-                            };
+                            let timing = ChunkTiming::read_now(self.id, flight.sent_ns, &h);
                             check(flight.job_id, &h, &body).map(|body| (body, timing))
                         })
                 }

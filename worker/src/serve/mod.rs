@@ -5,12 +5,12 @@
 pub mod iceoryx;
 pub mod zenoh;
 
+use crate::cpu::host_clock_ns;
 use crate::evaluate::run_job;
 use crate::learn::run_training;
 use lander_protocol::wire::{
     self, Job, JobHeader, ResultHeader, Status, WireError, WireGene, PROTOCOL_VERSION,
 };
-use std::time::Instant;
 
 pub use iceoryx::serve;
 
@@ -42,7 +42,7 @@ pub fn answer(
     id: u64,
     say: &dyn Fn(Note, &str),
 ) -> (ResultHeader, Vec<u8>) {
-    let started = Instant::now();
+    let started_ns = host_clock_ns();
     let (status, body) = match Job::from_wire(header, genes) {
         Ok(Job::Evaluate(job)) => (Status::Done, run_job(job).encode()),
         Ok(Job::Train(job)) => (Status::Done, wire::encode(&run_training(&job))),
@@ -63,7 +63,8 @@ pub fn answer(
         status: status as u32,
         job_id: header.job_id,
         worker_id: id,
-        compute_ns: started.elapsed().as_nanos() as u64,
+        started_ns,
+        finished_ns: host_clock_ns(),
     };
     (result, body)
 }
