@@ -240,6 +240,20 @@ pub fn open_to_strangers(cfg: &Config) -> Vec<String> {
         .collect()
 }
 
+/// A warning for the user if `cfg` listens where strangers could join
+/// (see [`open_to_strangers`]): `joining` says what they could then do,
+/// and `remedy` how to stop them.
+pub fn strangers_warning(cfg: &Config, joining: &str, remedy: &str) -> Option<String> {
+    let open = open_to_strangers(cfg);
+    (!open.is_empty()).then(|| {
+        format!(
+            "warning: listening on {} without authentication: anyone who can reach it \
+             can {joining}; {remedy}",
+            open.join(", ")
+        )
+    })
+}
+
 fn loopback(endpoint: &str) -> bool {
     let address = endpoint.split_once('/').map_or(endpoint, |(_, a)| a);
     let address = address.split_once('#').map_or(address, |(a, _)| a);

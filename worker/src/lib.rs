@@ -7,7 +7,8 @@
 //! - [`reference`]: a deliberately plain simulation, the baseline that the
 //!   fast one must match bit for bit.
 //! - [`serve`]: the worker process's loop, serving jobs over iceoryx2.
-//! - [`cpu`]: pinning to a CPU and the batch scheduling class.
+//! - [`cpu`]: pinning to a CPU and the batch scheduling class; the clocks
+//!   `lander bench` reads.
 //!
 //! All but `serve` and `cpu` is pure: no locks, no I/O, no allocation in the flight loop.
 

@@ -8,9 +8,9 @@ use lander_coordinator::bench::{Mode, ModeEvaluator, ModeReport, Workload};
 use lander_coordinator::config::{Approach, RunConfig};
 use lander_coordinator::evaluator::InProcess;
 use lander_coordinator::pool::zenoh::Zenoh;
-use lander_coordinator::pool::{IpcPool, Pool};
+use lander_coordinator::pool::{IpcPool, Pool, PoolOptions};
 use lander_protocol::iox::MAX_WORKERS;
-use lander_protocol::net::NetOptions;
+use lander_protocol::net::{coordinator_config, NetOptions};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -42,6 +42,11 @@ pub struct BenchArgs {
     /// zenoh mode: where the coordinator listens (loopback).
     #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7448")]
     listen: String,
+    /// Chunks each worker gets of a generation, for the worker-process
+    /// modes: more balance the workers better, fewer cost less to send.
+    #[arg(long, value_name = "N", default_value_t = 4,
+          value_parser = clap::value_parser!(u16).range(1..=256))]
+    chunks_per_worker: u16,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -75,6 +80,7 @@ struct Report {
     generations: u64,
     rounds: usize,
     workers: usize,
+    chunks_per_worker: u16,
     modes: Vec<ModeReport>,
     ratios: Ratios,
     hashes_agree: bool,
@@ -87,6 +93,12 @@ fn args_for_stress(args: &BenchArgs) -> super::stress::StressArgs {
         no_pin: args.no_pin,
         json: args.json,
     }
+}
+
+fn pool_options_for(args: &BenchArgs, id: String, workers: usize) -> anyhow::Result<PoolOptions> {
+    let mut opts = pool_options(id, workers, Duration::from_secs(60), !args.no_pin)?;
+    opts.chunks_per_worker = usize::from(args.chunks_per_worker);
+    Ok(opts)
 }
 
 fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
@@ -109,7 +121,7 @@ fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
             "iceoryx2" => {
                 for w in if n > 1 { vec![1, n] } else { vec![1] } {
                     let id = format!("bench{:08x}", rand::random::<u32>());
-                    let opts = pool_options(id, w, Duration::from_secs(60), !args.no_pin)?;
+                    let opts = pool_options_for(args, id, w)?;
                     let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("lander: {m}")))?;
                     pool.wait_for_workers(w, Duration::from_secs(20))
                         .context("waiting for the benchmark's workers")?;
@@ -121,12 +133,12 @@ fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
             }
             "zenoh" => {
                 let id = format!("bench{:08x}", rand::random::<u32>());
-                let opts = pool_options(id, n, Duration::from_secs(60), !args.no_pin)?;
+                let opts = pool_options_for(args, id, n)?;
                 let options = NetOptions {
                     listen: vec![args.listen.clone()],
                     ..NetOptions::default()
                 };
-                let transport = Zenoh::open(&opts.run_id, &options)?;
+                let transport = Zenoh::open(&opts.run_id, coordinator_config(&options)?)?;
                 let say = Box::new(|m: &str| eprintln!("lander: {m}"));
                 let mut pool = Pool::with_transport(transport, opts, say)?;
                 pool.wait_for_workers(n, Duration::from_secs(20))
@@ -212,6 +224,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         generations,
         rounds: args.rounds,
         workers: n,
+        chunks_per_worker: args.chunks_per_worker,
         modes: reports,
         ratios,
         hashes_agree,
@@ -227,9 +240,14 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
 }
 
 fn print_table(r: &Report) {
+    let method = if r.method == "ga" {
+        "general"
+    } else {
+        r.method
+    };
     println!(
-        "{} GA, {} genomes × {} generations × {} rounds, {} workers",
-        r.method, r.population, r.generations, r.rounds, r.workers
+        "{method} GA, {} genomes × {} generations × {} rounds, {} workers, {} chunks per worker",
+        r.population, r.generations, r.rounds, r.workers, r.chunks_per_worker
     );
     println!(
         "{:<12} {:>12} {:>10} {:>9} {:>9} {:>9} {:>12} {:>13} {:>6}",

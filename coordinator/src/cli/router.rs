@@ -4,7 +4,7 @@
 
 use anyhow::Context;
 use clap::Args;
-use lander_protocol::net::{self, listening, open_to_strangers, router_config, NetOptions};
+use lander_protocol::net::{self, listening, router_config, strangers_warning, NetOptions};
 use signal_hook::consts::{SIGINT, SIGTERM};
 use signal_hook::iterator::Signals;
 use std::path::PathBuf;
@@ -48,13 +48,9 @@ pub fn router(args: RouterArgs) -> anyhow::Result<()> {
     // Registered before the session opens, so a signal during start-up
     // still stops the router cleanly.
     let mut signals = Signals::new([SIGTERM, SIGINT]).context("handling SIGTERM and SIGINT")?;
-    let open = open_to_strangers(&cfg);
-    if !open.is_empty() {
-        say(&format!(
-            "warning: listening on {} without authentication: anyone who can reach it \
-             can join the runs it carries; pass --users or use mutual TLS",
-            open.join(", ")
-        ));
+    let joining = "join the runs it carries";
+    if let Some(warning) = strangers_warning(&cfg, joining, "pass --users or use mutual TLS") {
+        say(&warning);
     }
     if net::guard_tls(&cfg) {
         say(net::TLS_NOTE);

@@ -9,7 +9,7 @@ use lander_coordinator::evaluator::{Backend, InProcess};
 use lander_coordinator::pool::zenoh::Zenoh;
 use lander_coordinator::pool::{IpcPool, Pool, PoolOptions, Say};
 use lander_protocol::iox::MAX_WORKERS;
-use lander_protocol::net::{coordinator_config, open_to_strangers, NetOptions};
+use lander_protocol::net::{coordinator_config, strangers_warning, NetOptions};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -118,15 +118,13 @@ impl TransportArgs {
             users: self.users.clone(),
             ..NetOptions::default()
         };
-        let open = open_to_strangers(&coordinator_config(&options)?);
-        if !open.is_empty() {
-            say(&format!(
-                "warning: listening on {} without authentication: anyone who can reach it \
-                 can join this run and send it results; pass --users or a mutual-TLS --zenoh-config",
-                open.join(", ")
-            ));
+        let config = coordinator_config(&options)?;
+        let joining = "join this run and send it results";
+        let remedy = "pass --users or a mutual-TLS --zenoh-config";
+        if let Some(warning) = strangers_warning(&config, joining, remedy) {
+            say(&warning);
         }
-        let transport = Zenoh::open(&opts.run_id, &options)?;
+        let transport = Zenoh::open(&opts.run_id, config)?;
         if transport.io_on_one_thread {
             say(lander_protocol::net::TLS_NOTE);
         }

@@ -8,7 +8,7 @@
 use super::{check, Answer, Arrival, ChunkTiming, Transport, WorkerLink, DEPTH};
 use crate::evaluator::EvalError;
 use lander_protocol::envelope::{decode_result, encode_job};
-use lander_protocol::net::{self, coordinator_config, NetError, NetOptions, RunKeys};
+use lander_protocol::net::{self, NetError, RunKeys};
 use lander_protocol::wire::{JobHeader, WireGene};
 use lander_worker::cpu::host_clock_ns;
 use std::collections::VecDeque;
@@ -54,11 +54,12 @@ pub struct Zenoh {
 }
 
 impl Zenoh {
-    /// Opens the session, listening as `options` say, and starts watching
-    /// the run's liveliness tokens.
-    pub fn open(run_id: &str, options: &NetOptions) -> Result<Zenoh, EvalError> {
-        let config = coordinator_config(options)?;
+    /// Opens the session with `config` (a coordinator's, from
+    /// [`net::coordinator_config`]) and starts watching the run's liveliness
+    /// tokens.
+    pub fn open(run_id: &str, config: zenoh::Config) -> Result<Zenoh, EvalError> {
         let io_on_one_thread = net::guard_tls(&config);
+        let listening = net::listening(&config);
         let session = zenoh::open(config)
             .wait()
             .map_err(net::fail("opening the zenoh session"))?;
@@ -88,7 +89,7 @@ impl Zenoh {
             .wait()
             .map_err(net::fail("declaring the coordinator's token"))?;
         let mut worker_args = vec!["--transport".to_string(), "zenoh".to_string()];
-        for endpoint in &options.listen {
+        for endpoint in &listening {
             worker_args.push("--connect".into());
             worker_args.push(reachable(endpoint));
         }
