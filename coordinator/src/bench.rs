@@ -260,27 +260,32 @@ impl Breakdown {
         let first_sent = timings.iter().map(|t| t.sent_ns).min()?;
         let last_read = timings.iter().map(|t| t.read_ns).max()?;
         let last_finished = timings.iter().map(|t| t.finished_ns).max()?;
-        let mut workers: HashMap<u64, (u64, u64, u64)> = HashMap::new();
+        let mut workers: HashMap<u64, WorkerSpan> = HashMap::new();
         for t in timings {
-            let (first, last, busy) = workers.entry(t.worker).or_insert((u64::MAX, 0, 0));
-            *first = (*first).min(t.started_ns);
-            *last = (*last).max(t.finished_ns);
-            *busy += t.finished_ns.saturating_sub(t.started_ns);
+            let w = workers.entry(t.worker).or_insert(WorkerSpan {
+                started: u64::MAX,
+                finished: 0,
+                busy: 0,
+            });
+            w.started = w.started.min(t.started_ns);
+            w.finished = w.finished.max(t.finished_ns);
+            // Stamps come from another process: nothing here may overflow.
+            w.busy = w
+                .busy
+                .saturating_add(t.finished_ns.saturating_sub(t.started_ns));
         }
-        let n = workers.len() as f64;
-        let mean = |part: &dyn Fn(&(u64, u64, u64)) -> u64| {
-            workers.values().map(|w| part(w) as f64).sum::<f64>() / n / 1e3
+        let mean_us = |part: fn(&WorkerSpan) -> u64| {
+            let total: f64 = workers.values().map(|w| part(w) as f64).sum();
+            total / workers.len() as f64 / 1e3
         };
-        let span = last_read.saturating_sub(first_sent) as f64 / 1e3;
+        let wall_us = wall.as_secs_f64() * 1e6;
         Some(Breakdown {
-            wall_us: wall.as_secs_f64() * 1e6,
-            coordinator_us: wall.as_secs_f64() * 1e6 - span,
-            start_us: mean(&|&(first, _, _)| first.saturating_sub(first_sent)),
-            compute_us: mean(&|&(_, _, busy)| busy),
-            between_us: mean(&|&(first, last, busy)| {
-                last.saturating_sub(first).saturating_sub(busy)
-            }),
-            waiting_us: mean(&|&(_, last, _)| last_finished - last),
+            wall_us,
+            coordinator_us: wall_us - last_read.saturating_sub(first_sent) as f64 / 1e3,
+            start_us: mean_us(|w| w.started) - first_sent as f64 / 1e3,
+            compute_us: mean_us(|w| w.busy),
+            between_us: mean_us(|w| w.finished.saturating_sub(w.started).saturating_sub(w.busy)),
+            waiting_us: last_finished as f64 / 1e3 - mean_us(|w| w.finished),
             tail_us: last_read.saturating_sub(last_finished) as f64 / 1e3,
         })
     }
@@ -299,6 +304,14 @@ impl Breakdown {
             tail_us: part(|b| b.tail_us),
         })
     }
+}
+
+/// One worker's part of a generation: from its first start to its last
+/// finish, and its time computing in between.
+struct WorkerSpan {
+    started: u64,
+    finished: u64,
+    busy: u64,
 }
 
 /// Each chunk's round trip minus all its worker computed meanwhile: the
@@ -329,7 +342,7 @@ pub fn overheads(timings: &[ChunkTiming]) -> Vec<Duration> {
                     let start = r.started_ns.max(chunk.sent_ns);
                     r.finished_ns.min(chunk.read_ns).saturating_sub(start)
                 })
-                .sum();
+                .fold(0, u64::saturating_add);
             chunk
                 .round_trip()
                 .saturating_sub(Duration::from_nanos(busy))
@@ -421,6 +434,18 @@ mod tests {
         assert!((b.between_us - 0.030).abs() < 1e-9, "{b:?}");
         assert!((b.tail_us - 0.010).abs() < 1e-9, "{b:?}");
         assert!((b.coordinator_us - 0.010).abs() < 1e-9, "{b:?}");
+    }
+
+    #[test]
+    fn nonsense_stamps_from_a_worker_give_nonsense_figures_but_no_panic() {
+        let t = [
+            timing(1, 10, 5, u64::MAX, 0),
+            timing(1, 0, u64::MAX, 0, u64::MAX),
+            timing(1, 0, u64::MAX, 1, u64::MAX),
+            timing(2, u64::MAX, 0, 3, 2),
+        ];
+        assert_eq!(overheads(&t).len(), 4);
+        assert!(Breakdown::of(&t, Duration::from_nanos(1)).is_some());
     }
 
     #[test]
