@@ -244,12 +244,15 @@ pub struct Breakdown {
     pub start_us: f64,
     pub compute_us: f64,
     /// Between a worker's chunks: answering one and taking the next, or
-    /// sleeping until a chunk taken back from another worker arrives.
+    /// sleeping until a chunk taken back from another worker arrives (or
+    /// computing one taken back from it just after it started, which no
+    /// answer reports).
     pub between_us: f64,
     /// Done, while the last worker still computes: the imbalance.
     pub waiting_us: f64,
     /// From the last chunk finished to its answer read: telling and waking
-    /// the coordinator.
+    /// the coordinator, and its decoding of answers read before in the same
+    /// wake.
     pub tail_us: f64,
 }
 
@@ -257,9 +260,13 @@ impl Breakdown {
     /// The breakdown of a generation whose chunks went as `timings` and
     /// whose evaluation took `wall`; `None` for no chunks.
     pub fn of(timings: &[ChunkTiming], wall: Duration) -> Option<Breakdown> {
+        // Every stamp from the first request sent, in whole nanoseconds:
+        // stamps count from boot, and as f64 their differences would round.
+        // Stamps come from another process, so nothing here may overflow.
         let first_sent = timings.iter().map(|t| t.sent_ns).min()?;
-        let last_read = timings.iter().map(|t| t.read_ns).max()?;
-        let last_finished = timings.iter().map(|t| t.finished_ns).max()?;
+        let since = |ns: u64| ns.saturating_sub(first_sent);
+        let last_read = since(timings.iter().map(|t| t.read_ns).max()?);
+        let last_finished = since(timings.iter().map(|t| t.finished_ns).max()?);
         let mut workers: HashMap<u64, WorkerSpan> = HashMap::new();
         for t in timings {
             let w = workers.entry(t.worker).or_insert(WorkerSpan {
@@ -267,25 +274,23 @@ impl Breakdown {
                 finished: 0,
                 busy: 0,
             });
-            w.started = w.started.min(t.started_ns);
-            w.finished = w.finished.max(t.finished_ns);
-            // Stamps come from another process: nothing here may overflow.
-            w.busy = w
-                .busy
-                .saturating_add(t.finished_ns.saturating_sub(t.started_ns));
+            w.started = w.started.min(since(t.started_ns));
+            w.finished = w.finished.max(since(t.finished_ns));
+            let busy = t.finished_ns.saturating_sub(t.started_ns);
+            w.busy = w.busy.saturating_add(busy);
         }
-        let mean_us = |part: fn(&WorkerSpan) -> u64| {
+        let mean_us = |part: &dyn Fn(&WorkerSpan) -> u64| {
             let total: f64 = workers.values().map(|w| part(w) as f64).sum();
             total / workers.len() as f64 / 1e3
         };
         let wall_us = wall.as_secs_f64() * 1e6;
         Some(Breakdown {
             wall_us,
-            coordinator_us: wall_us - last_read.saturating_sub(first_sent) as f64 / 1e3,
-            start_us: mean_us(|w| w.started) - first_sent as f64 / 1e3,
-            compute_us: mean_us(|w| w.busy),
-            between_us: mean_us(|w| w.finished.saturating_sub(w.started).saturating_sub(w.busy)),
-            waiting_us: last_finished as f64 / 1e3 - mean_us(|w| w.finished),
+            coordinator_us: wall_us - last_read as f64 / 1e3,
+            start_us: mean_us(&|w| w.started),
+            compute_us: mean_us(&|w| w.busy),
+            between_us: mean_us(&|w| w.finished.saturating_sub(w.started).saturating_sub(w.busy)),
+            waiting_us: mean_us(&|w| last_finished.saturating_sub(w.finished)),
             tail_us: last_read.saturating_sub(last_finished) as f64 / 1e3,
         })
     }
@@ -306,8 +311,9 @@ impl Breakdown {
     }
 }
 
-/// One worker's part of a generation: from its first start to its last
-/// finish, and its time computing in between.
+/// One worker's part of a generation: its first start and last finish,
+/// counted from the generation's first request, and its time computing in
+/// between.
 struct WorkerSpan {
     started: u64,
     finished: u64,
@@ -316,8 +322,9 @@ struct WorkerSpan {
 
 /// Each chunk's round trip minus all its worker computed meanwhile: the
 /// chunk itself, a chunk queued ahead of it, and the chunks after it that
-/// the worker finished before waking the coordinator (it wakes it once it
-/// has answered all it holds). What is left is the hand-out, the
+/// the worker finished before the coordinator read the answer (an iceoryx2
+/// worker wakes the coordinator once it has answered all it holds). What
+/// is left is the hand-out, the
 /// wake-ups, the transport and the coordinator's reading of the answer.
 /// Needs the worker's stamps on the coordinator's clock: one host.
 pub fn overheads(timings: &[ChunkTiming]) -> Vec<Duration> {
@@ -374,21 +381,34 @@ mod tests {
         }
     }
 
+    /// Worker 1 holds three chunks sent at 0, 10 and 20, runs them over
+    /// 50..150, 150..250 and 250..300, and wakes the coordinator, which
+    /// reads all three at 340. Worker 2's chunk, sent at 30, runs over
+    /// 60..260 and is read at 280. Every stamp is `boot` nanoseconds on.
+    fn two_workers(boot: u64) -> [ChunkTiming; 4] {
+        let at = |worker, sent, read, started, finished| {
+            timing(
+                worker,
+                boot + sent,
+                boot + read,
+                boot + started,
+                boot + finished,
+            )
+        };
+        [
+            at(1, 0, 340, 50, 150),
+            at(1, 10, 340, 150, 250),
+            at(1, 20, 340, 250, 300),
+            at(2, 30, 280, 60, 260),
+        ]
+    }
+
     #[test]
     fn overhead_leaves_out_everything_the_worker_computed_meanwhile() {
-        // Worker 1 holds three chunks sent at 0, 10 and 20, runs them over
-        // 50..150, 150..250 and 250..300, and wakes the coordinator, which
-        // reads all three at 340. Worker 2's chunk, sent at 30, runs over
-        // 60..260 and is read at 280; it takes nothing off worker 1's.
-        let t = [
-            timing(1, 0, 340, 50, 150),
-            timing(1, 10, 340, 150, 250),
-            timing(1, 20, 340, 250, 300),
-            timing(2, 30, 280, 60, 260),
-        ];
-        let us = |v: u64| Duration::from_nanos(v);
-        // Round trips 340, 330, 320 and 250, less 250, 250, 250 and 200.
-        assert_eq!(overheads(&t), [us(90), us(80), us(70), us(50)]);
+        let ns = Duration::from_nanos;
+        // Round trips 340, 330, 320 and 250, less 250, 250, 250 and 200:
+        // worker 2's chunk takes nothing off worker 1's.
+        assert_eq!(overheads(&two_workers(0)), [ns(90), ns(80), ns(70), ns(50)]);
     }
 
     #[test]
@@ -401,17 +421,19 @@ mod tests {
 
     #[test]
     fn a_generations_parts_add_up_to_its_wall_time() {
-        // The case above, evaluated in 400 ns: worker 1 starts 50 after the
+        // `two_workers`, evaluated in 400 ns: worker 1 starts 50 after the
         // first send, computes 250 with no gap, finishes last at 300; worker
         // 2 starts at 60, computes 200, finishes at 260 and waits 40. The
-        // last answer is read 40 after the last finish.
-        let t = [
-            timing(1, 0, 340, 50, 150),
-            timing(1, 10, 340, 150, 250),
-            timing(1, 20, 340, 250, 300),
-            timing(2, 30, 280, 60, 260),
-        ];
-        let b = Breakdown::of(&t, Duration::from_nanos(400)).unwrap();
+        // last answer is read 40 after the last finish. A host up for ten
+        // years changes nothing.
+        for boot in [0, 10 * 365 * 86_400 * 1_000_000_000] {
+            let b = Breakdown::of(&two_workers(boot), Duration::from_nanos(400)).unwrap();
+            assert_two_workers_breakdown(b);
+        }
+        assert_eq!(Breakdown::of(&[], Duration::from_nanos(400)), None);
+    }
+
+    fn assert_two_workers_breakdown(b: Breakdown) {
         let close = |got: f64, want_ns: f64| (got - want_ns / 1e3).abs() < 1e-9;
         assert!(close(b.wall_us, 400.0), "{b:?}");
         assert!(close(b.coordinator_us, 400.0 - 340.0), "{b:?}");
@@ -423,7 +445,6 @@ mod tests {
         let sum =
             b.coordinator_us + b.start_us + b.compute_us + b.between_us + b.waiting_us + b.tail_us;
         assert!(close(sum, 400.0), "{b:?}");
-        assert_eq!(Breakdown::of(&[], Duration::from_nanos(400)), None);
     }
 
     #[test]

@@ -241,14 +241,14 @@ pub fn open_to_strangers(cfg: &Config) -> Vec<String> {
 }
 
 /// A warning for the user if `cfg` listens where strangers could join
-/// (see [`open_to_strangers`]): `joining` says what they could then do,
+/// (see [`open_to_strangers`]): `then_can` says what they could then do,
 /// and `remedy` how to stop them.
-pub fn strangers_warning(cfg: &Config, joining: &str, remedy: &str) -> Option<String> {
+pub fn strangers_warning(cfg: &Config, then_can: &str, remedy: &str) -> Option<String> {
     let open = open_to_strangers(cfg);
     (!open.is_empty()).then(|| {
         format!(
             "warning: listening on {} without authentication: anyone who can reach it \
-             can {joining}; {remedy}",
+             can {then_can}; {remedy}",
             open.join(", ")
         )
     })

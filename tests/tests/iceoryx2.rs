@@ -382,6 +382,9 @@ fn bench_compares_the_modes_and_their_results_agree() {
     let bad = iox.lander(&["bench", "--transports", "carrier-pigeon"]);
     assert!(!bad.status.success());
     assert!(stderr(&bad).contains("--transports"));
+    let bad = iox.lander(&["bench", "--stress", "--chunks-per-worker", "2"]);
+    assert!(!bad.status.success());
+    assert!(stderr(&bad).contains("--chunks-per-worker"));
     let bad = iox.lander(&["bench", "--chunks-per-worker", "0"]);
     assert!(!bad.status.success());
     assert!(

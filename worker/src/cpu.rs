@@ -1,7 +1,8 @@
 //! Where worker processes run: the CPUs this process may use, pinning to
-//! one of them, and the batch scheduling class. Also the two clocks
-//! `lander bench` reads: a thread's CPU time, and the host's monotonic
-//! clock, in which workers stamp their results.
+//! one of them, and the batch scheduling class. Also two clocks: the host's
+//! monotonic clock, in which workers stamp their results and the pool its
+//! requests and answers, and a thread's CPU time, which `lander bench`
+//! reports.
 //!
 //! Pinning and the batch class both matter on small machines. Without pinning, the scheduler places a
 //! woken worker near the coordinator that woke it, so at the start of a

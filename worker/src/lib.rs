@@ -8,7 +8,7 @@
 //!   fast one must match bit for bit.
 //! - [`serve`]: the worker process's loop, serving jobs over iceoryx2.
 //! - [`cpu`]: pinning to a CPU and the batch scheduling class; the clocks
-//!   `lander bench` reads.
+//!   that time chunks.
 //!
 //! All but `serve` and `cpu` is pure: no locks, no I/O, no allocation in the flight loop.
 

@@ -15,6 +15,10 @@ use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Duration;
 
+/// Chunks per worker unless `--chunks-per-worker` says otherwise: as many
+/// as a worker queues at once, as `lander run` uses.
+const DEFAULT_CHUNKS: u16 = lander_coordinator::pool::DEPTH as u16;
+
 #[derive(Args, Debug)]
 pub struct BenchArgs {
     /// A TOML run configuration for the model's parameters.
@@ -43,10 +47,11 @@ pub struct BenchArgs {
     #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7448")]
     listen: String,
     /// Chunks each worker gets of a generation, for the worker-process
-    /// modes: more balance the workers better, fewer cost less to send.
-    #[arg(long, value_name = "N", default_value_t = 4,
-          value_parser = clap::value_parser!(u16).range(1..=256))]
-    chunks_per_worker: u16,
+    /// modes (not --stress, which uses 16). More can balance the workers
+    /// better, but each costs a little to send and answer, and a worker
+    /// queues at most 4 at once [default: 4].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=256))]
+    chunks_per_worker: Option<u16>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -97,7 +102,7 @@ fn args_for_stress(args: &BenchArgs) -> super::stress::StressArgs {
 
 fn pool_options_for(args: &BenchArgs, id: String, workers: usize) -> anyhow::Result<PoolOptions> {
     let mut opts = pool_options(id, workers, Duration::from_secs(60), !args.no_pin)?;
-    opts.chunks_per_worker = usize::from(args.chunks_per_worker);
+    opts.chunks_per_worker = usize::from(args.chunks_per_worker.unwrap_or(DEFAULT_CHUNKS));
     Ok(opts)
 }
 
@@ -179,6 +184,10 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     anyhow::ensure!(generations >= 1, "--generations must be at least 1");
     let work = Workload::new(&cfg, method, generations);
     if args.stress {
+        anyhow::ensure!(
+            args.chunks_per_worker.is_none(),
+            "--chunks-per-worker does not apply to --stress, which uses small chunks of its own"
+        );
         return super::stress::stress(&args_for_stress(&args), &work);
     }
     let mut modes = modes(&args)?;
@@ -224,7 +233,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         generations,
         rounds: args.rounds,
         workers: n,
-        chunks_per_worker: args.chunks_per_worker,
+        chunks_per_worker: args.chunks_per_worker.unwrap_or(DEFAULT_CHUNKS),
         modes: reports,
         ratios,
         hashes_agree,
@@ -300,7 +309,9 @@ fn print_breakdowns(r: &Report) {
     if rows.is_empty() {
         return;
     }
-    println!("a generation, mean µs (each worker's parts add up to the wall time; the mean over workers):");
+    println!(
+        "a generation, mean µs (each part the mean over workers; with the coordinator's, they add up to the wall time):"
+    );
     println!(
         "{:<12} {:>8} {:>11} {:>8} {:>8} {:>8} {:>8} {:>8}",
         "mode", "wall", "coordinator", "start", "compute", "between", "waiting", "tail"

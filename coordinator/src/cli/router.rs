@@ -48,8 +48,8 @@ pub fn router(args: RouterArgs) -> anyhow::Result<()> {
     // Registered before the session opens, so a signal during start-up
     // still stops the router cleanly.
     let mut signals = Signals::new([SIGTERM, SIGINT]).context("handling SIGTERM and SIGINT")?;
-    let joining = "join the runs it carries";
-    if let Some(warning) = strangers_warning(&cfg, joining, "pass --users or use mutual TLS") {
+    let then_can = "join the runs it carries";
+    if let Some(warning) = strangers_warning(&cfg, then_can, "pass --users or use mutual TLS") {
         say(&warning);
     }
     if net::guard_tls(&cfg) {

@@ -7,7 +7,7 @@ use clap::{Args, ValueEnum};
 use indicatif::ProgressBar;
 use lander_coordinator::evaluator::{Backend, InProcess};
 use lander_coordinator::pool::zenoh::Zenoh;
-use lander_coordinator::pool::{IpcPool, Pool, PoolOptions, Say};
+use lander_coordinator::pool::{IpcPool, Pool, PoolOptions, Say, DEPTH};
 use lander_protocol::iox::MAX_WORKERS;
 use lander_protocol::net::{coordinator_config, strangers_warning, NetOptions};
 use std::path::PathBuf;
@@ -119,9 +119,9 @@ impl TransportArgs {
             ..NetOptions::default()
         };
         let config = coordinator_config(&options)?;
-        let joining = "join this run and send it results";
+        let then_can = "join this run and send it results";
         let remedy = "pass --users or a mutual-TLS --zenoh-config";
-        if let Some(warning) = strangers_warning(&config, joining, remedy) {
+        if let Some(warning) = strangers_warning(&config, then_can, remedy) {
             say(&warning);
         }
         let transport = Zenoh::open(&opts.run_id, config)?;
@@ -147,7 +147,8 @@ pub fn pool_options(
         run_id,
         spawn: workers,
         worker_exe,
-        chunks_per_worker: 4,
+        // A generation handed out whole as it starts.
+        chunks_per_worker: DEPTH,
         deadline,
         max_respawns: 3 * workers.max(1),
         pin,

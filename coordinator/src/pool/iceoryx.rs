@@ -129,7 +129,7 @@ struct InFlight {
     /// The pool's index of the job.
     job: usize,
     pending: Pending,
-    /// On the host's clock.
+    /// When the request was sent, on the host's clock.
     sent_ns: u64,
     deadline: Option<Instant>,
 }

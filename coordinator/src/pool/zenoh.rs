@@ -195,7 +195,7 @@ struct InFlight {
     job_id: u64,
     job: usize,
     slot: Arc<Mutex<Slot>>,
-    /// On the host's clock.
+    /// When the request was sent, on the host's clock.
     sent_ns: u64,
     deadline: Option<Instant>,
 }
