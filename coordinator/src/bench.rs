@@ -324,9 +324,9 @@ struct WorkerSpan {
 /// chunk itself, a chunk queued ahead of it, and the chunks after it that
 /// the worker finished before the coordinator read the answer (an iceoryx2
 /// worker wakes the coordinator once it has answered all it holds). What
-/// is left is the hand-out, the
-/// wake-ups, the transport and the coordinator's reading of the answer.
-/// Needs the worker's stamps on the coordinator's clock: one host.
+/// is left is the hand-out, the wake-ups, the transport and the
+/// coordinator's reading of the answer. Needs the worker's stamps on the
+/// coordinator's clock: one host.
 pub fn overheads(timings: &[ChunkTiming]) -> Vec<Duration> {
     let mut by_worker: HashMap<u64, Vec<&ChunkTiming>> = HashMap::new();
     for t in timings {
