@@ -627,7 +627,7 @@ impl<T: Transport> Trainer for Pool<T> {
 impl<T: Transport> Evaluator for Pool<T> {
     fn evaluate_many(
         &mut self,
-        batches: Vec<Batch<'_>>,
+        mut batches: Vec<Batch<'_>>,
     ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
         let workers = self.links.len().max(self.opts.spawn).max(1);
         // About `chunks_per_worker` chunks per worker in all, however many
@@ -646,24 +646,28 @@ impl<T: Transport> Evaluator for Pool<T> {
                 spans.push((b, range, length, batch.method));
             }
         }
+        // The guided actions go back into the genomes as each answer
+        // arrives, while other workers still fly: at a generation's end
+        // only the last answers' are left to write.
         let results = self.run_jobs(
             &jobs,
             |i, body| {
                 let (_, range, length, method) = &spans[i];
                 ChunkResult::decode(body, *method, range.len(), *length).map_err(|e| e.to_string())
             },
-            |_, _| (),
+            |i, result| {
+                let (b, range, _, _) = &spans[i];
+                write_back(&mut batches[*b].genomes[range.clone()], &result.actions);
+            },
         )?;
-        let mut per_batch: Vec<Vec<(Range<usize>, ChunkResult)>> =
-            batches.iter().map(|_| Vec::new()).collect();
-        for ((b, range, _, _), result) in spans.into_iter().zip(results) {
-            per_batch[b].push((range, result));
+        let mut evaluations: Vec<Vec<Evaluation>> = batches
+            .iter()
+            .map(|b| Vec::with_capacity(b.genomes.len()))
+            .collect();
+        for ((b, _, _, _), result) in spans.iter().zip(results) {
+            evaluations[*b].extend(result.evaluations);
         }
-        Ok(batches
-            .into_iter()
-            .zip(per_batch)
-            .map(|(batch, results)| assemble(batch.genomes, results))
-            .collect())
+        Ok(evaluations)
     }
 }
 
@@ -701,25 +705,16 @@ fn wire_genes(genomes: &[crate::ga::Genome], length: usize) -> Vec<WireGene> {
     genes
 }
 
-/// Puts the chunks' results in population order and writes the guided
-/// actions back into the genomes.
-fn assemble(
-    genomes: &mut [crate::ga::Genome],
-    results: Vec<(Range<usize>, ChunkResult)>,
-) -> Vec<Evaluation> {
-    let mut out = Vec::with_capacity(genomes.len());
-    for (range, result) in results {
-        let chunk = &mut genomes[range.clone()];
-        let length = chunk.first().map_or(0, Vec::len).max(1);
-        for (genome, actions) in chunk.iter_mut().zip(result.actions.chunks(length)) {
-            for (gene, &a) in genome.iter_mut().zip(actions) {
-                // Checked on decoding: every action is 0..=3.
-                gene.action = Action::from_index(a).unwrap_or(gene.action);
-            }
+/// Writes the guided pass's actions into the genomes it rewrote. A chunk
+/// of the general GA brings no actions, and leaves its genomes alone.
+fn write_back(genomes: &mut [crate::ga::Genome], actions: &[u8]) {
+    let length = genomes.first().map_or(0, Vec::len).max(1);
+    for (genome, actions) in genomes.iter_mut().zip(actions.chunks(length)) {
+        for (gene, &a) in genome.iter_mut().zip(actions) {
+            // Checked on decoding: every action is 0..=3.
+            gene.action = Action::from_index(a).unwrap_or(gene.action);
         }
-        out.extend(result.evaluations);
     }
-    out
 }
 
 impl<T: Transport> Drop for Pool<T> {
