@@ -379,6 +379,15 @@ fn bench_compares_the_modes_and_their_results_agree() {
     }
     assert!(report["ratios"]["scaling"].as_f64().unwrap() > 0.0);
     assert!(report["ratios"]["ipc_efficiency"].as_f64().unwrap() > 0.0);
+    // The compute-alone ceiling: one worker's compute per generation over
+    // the mean per worker with two.
+    let compute = |i: usize| {
+        report["modes"][i]["generation"]["compute_us"]
+            .as_f64()
+            .unwrap()
+    };
+    let ceiling = report["ratios"]["compute_scaling"].as_f64().unwrap();
+    assert!((ceiling - compute(2) / compute(3)).abs() < 1e-9, "{report}");
     let bad = iox.lander(&["bench", "--transports", "carrier-pigeon"]);
     assert!(!bad.status.success());
     assert!(stderr(&bad).contains("--transports"));

@@ -72,6 +72,12 @@ pub struct BenchArgs {
 struct Ratios {
     /// iceoryx2 with N workers over iceoryx2 with 1.
     scaling: Option<f64>,
+    /// The scaling if the workers did nothing but compute, perfectly
+    /// balanced: one worker's compute per generation over the mean per
+    /// worker with N. Below N when N busy CPUs each run slower than one
+    /// does alone (a shared host, clock boost, shared caches): no pool can
+    /// scale past it.
+    compute_scaling: Option<f64>,
     /// iceoryx2 with N workers over in-process with N threads.
     ipc_efficiency: Option<f64>,
     /// zenoh with N workers over in-process with N threads.
@@ -218,10 +224,22 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             .find(|m| m.name == name)
             .map(|m| m.genomes_per_s)
     };
+    let compute = |name: String| {
+        reports
+            .iter()
+            .find(|m| m.name == name)
+            .and_then(|m| m.generation)
+            .map(|g| g.compute_us)
+    };
     let n = args.workers;
     let ratio = |a: Option<f64>, b: Option<f64>| Some(a? / b?);
     let ratios = Ratios {
         scaling: ratio(rate(format!("iceoryx2-{n}")), rate("iceoryx2-1".into())).filter(|_| n > 1),
+        compute_scaling: ratio(
+            compute("iceoryx2-1".into()),
+            compute(format!("iceoryx2-{n}")),
+        )
+        .filter(|_| n > 1),
         ipc_efficiency: ratio(rate(format!("iceoryx2-{n}")), rate(format!("inproc-{n}"))),
         zenoh_efficiency: ratio(rate(format!("zenoh-{n}")), rate(format!("inproc-{n}"))),
     };
@@ -289,9 +307,10 @@ fn print_table(r: &Report) {
     print_breakdowns(r);
     let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}×"));
     println!(
-        "scaling (iceoryx2-{n} / iceoryx2-1): {}   ipc efficiency (iceoryx2-{n} / inproc-{n}): {}   \
+        "scaling (iceoryx2-{n} / iceoryx2-1): {} (compute alone: {})   ipc efficiency (iceoryx2-{n} / inproc-{n}): {}   \
          zenoh efficiency (zenoh-{n} / inproc-{n}): {}   results agree: {}",
         pct(r.ratios.scaling),
+        pct(r.ratios.compute_scaling),
         pct(r.ratios.ipc_efficiency),
         pct(r.ratios.zenoh_efficiency),
         r.hashes_agree,
