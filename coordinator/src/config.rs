@@ -1,5 +1,5 @@
-//! The run configuration: every parameter of SPEC §1–4 with the paper's
-//! defaults, read from TOML and validated field by field.
+//! The run configuration: every parameter of SPEC §1–5 with the paper's
+//! defaults (and the Q(λ) baseline's), read from TOML and validated field by field.
 
 use crate::ga::GaParams;
 use lander_protocol::check::{

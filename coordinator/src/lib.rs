@@ -4,7 +4,8 @@
 //! - [`ga`]: the GA's operators.
 //! - [`trial`]: one trial, generation by generation, with restarts.
 //! - [`evaluator`]: who flies a generation; in-process over threads.
-//! - [`pool`]: the evaluator pool over iceoryx2 worker processes.
+//! - [`pool`]: the evaluator pool over worker processes, reached over
+//!   iceoryx2 on this host or zenoh from any host.
 //! - [`bench`]: the throughput comparison behind `lander bench`.
 //! - [`report`]: what a run writes: JSON lines, `best.json`, the summary.
 //! - [`experiment`]: many paired trials, resumable, with tables, plots and a report.

@@ -1,7 +1,8 @@
 //! The experiment's summary: per-method success and generations, the paired
 //! comparison of the two GAs, the Q(λ) results, and the paper's statements
 //! each checked against the data. [`Summary::markdown`] renders it for
-//! `summary.md` and the report page.
+//! `summary.md` and the terminal; the report page builds its own HTML from
+//! the same [`Summary`].
 
 use crate::model::TrialRecord;
 use crate::plots::method_label as label;

@@ -6,7 +6,10 @@
 //! - [`evaluate`]: one genome under a method, as a worker serves it.
 //! - [`reference`]: a deliberately plain simulation, the baseline that the
 //!   fast one must match bit for bit.
-//! - [`serve`]: the worker process's loop, serving jobs over iceoryx2.
+//! - [`tiles`], [`qlearn`], [`learn`]: the hashed tile coder, Watkins's
+//!   Q(λ), and the lander as its task (SPEC §5).
+//! - [`serve`]: the worker process's loop, serving jobs over iceoryx2 or
+//!   zenoh.
 //! - [`cpu`]: pinning to a CPU and the batch scheduling class; the clocks
 //!   that time chunks.
 //!

@@ -34,7 +34,8 @@ pub struct ExperimentArgs {
     #[arg(long, default_value_t = 0)]
     threads: usize,
     /// GA trials stepped together, a generation of each per round
-    /// [default: 4 per thread or worker].
+    /// [default: 4 per spawned worker, or per evaluation thread without
+    /// --workers (so per local core with --attach)].
     #[arg(long, value_name = "N")]
     in_flight: Option<usize>,
     /// Print the summary as one JSON object on stdout.

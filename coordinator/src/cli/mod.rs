@@ -37,7 +37,7 @@ enum Command {
     Experiment(experiment::ExperimentArgs),
     /// Draw a flight as an SVG or an animated HTML page.
     Replay(replay::ReplayArgs),
-    /// Compare evaluation throughput in-process and over iceoryx2, side by side.
+    /// Compare evaluation throughput in-process, over iceoryx2 and over zenoh, side by side.
     Bench(bench::BenchArgs),
     /// Relay between a coordinator and workers on hosts that cannot reach
     /// each other: a zenoh router, until SIGTERM or SIGINT.

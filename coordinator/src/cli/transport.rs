@@ -23,15 +23,16 @@ pub enum Transport {
 
 #[derive(Args, Debug)]
 pub struct TransportArgs {
-    /// Worker processes to spawn, evaluating over iceoryx2 shared memory;
-    /// 0 evaluates in this process.
+    /// Worker processes to spawn on this host, reached over --transport
+    /// (iceoryx2 shared memory by default); 0 evaluates in this process.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub workers: usize,
     /// Wait for workers started elsewhere with `lander-worker --run <id>`;
     /// they may join or leave at any time.
     #[arg(long)]
     attach: bool,
-    /// The run id that names this run's iceoryx2 services [default: random].
+    /// The run id that names this run's iceoryx2 services or zenoh keys
+    /// [default: random].
     #[arg(long, value_name = "ID")]
     run_id: Option<String>,
     /// Seconds a worker may take over one chunk before it goes to another.
