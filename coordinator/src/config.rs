@@ -75,12 +75,11 @@ impl Default for RunConfig {
 
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
-    #[error("cannot read config file {path}: {source}")]
-    Read {
-        path: String,
-        source: std::io::Error,
-    },
-    #[error("config file {path}: {message}")]
+    // `error` rather than `source`: the message says it once, and a source
+    // would be said again by `{:#}`.
+    #[error("cannot read {path}: {error}")]
+    Read { path: String, error: std::io::Error },
+    #[error("{path}: {message}")]
     Parse { path: String, message: String },
     // Not a `source`: the message already says it all, once.
     #[error("invalid configuration: {0}")]
@@ -97,9 +96,9 @@ impl RunConfig {
     /// Reads and validates a TOML file.
     pub fn load(path: &Path) -> Result<RunConfig, ConfigError> {
         let shown = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Read {
             path: shown.clone(),
-            source,
+            error,
         })?;
         let cfg: RunConfig = toml::from_str(&text).map_err(|e| ConfigError::Parse {
             path: shown,

@@ -74,6 +74,9 @@ pub trait Trainer {
 pub trait Backend: Evaluator + Trainer {}
 impl<T: Evaluator + Trainer> Backend for T {}
 
+/// The most in-process evaluation threads a run may ask for.
+pub const MAX_THREADS: usize = 1024;
+
 /// Evaluation on this process's own threads.
 pub struct InProcess {
     pool: rayon::ThreadPool,
@@ -82,6 +85,13 @@ pub struct InProcess {
 impl InProcess {
     /// A pool of `threads` threads; 0 means one per core.
     pub fn new(threads: usize) -> Result<InProcess, EvalError> {
+        if threads > MAX_THREADS {
+            // Thousands of threads would start, and then crawl.
+            return Err(EvalError::Threads {
+                threads,
+                reason: format!("threads must be 0 (one per core) to {MAX_THREADS}"),
+            });
+        }
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .thread_name(|i| format!("lander-eval-{i}"))

@@ -28,6 +28,28 @@ pub const ROOT_ENV: &str = "LANDER_IOX2_ROOT";
 /// The most workers one run takes.
 pub const MAX_WORKERS: usize = 128;
 
+/// The longest run id: it goes into every service name of the run, and
+/// iceoryx2 bounds a name's length.
+pub const MAX_RUN_ID: usize = 64;
+
+/// Checks a run id given by a user: 1 to [`MAX_RUN_ID`] letters, digits,
+/// '-' or '_', which names services and keys on every transport. The error
+/// says what is allowed.
+pub fn check_run_id(id: &str) -> Result<(), String> {
+    let ok = !id.is_empty()
+        && id.len() <= MAX_RUN_ID
+        && id
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "must be 1 to {MAX_RUN_ID} letters, digits, '-' or '_' (got {id:?})"
+        ))
+    }
+}
+
 /// Requests that may sit in one worker's queue at once: the chunks the
 /// coordinator waits for, plus chunks it took back for an idle worker that
 /// the worker has not reached yet. A request sent to a full queue would

@@ -149,17 +149,52 @@ pub fn router_config(options: &NetOptions) -> Result<Config, NetError> {
     Ok(cfg)
 }
 
-/// Admits only sessions presenting a pair from `options.users`, if given.
+/// Admits only sessions presenting a pair from `options.users`, if given,
+/// or from the dictionary a configuration file names. Either is checked
+/// here: zenoh takes an empty dictionary as no authentication at all, so a
+/// user who named one would believe strangers kept out when they are not.
 fn check_users(cfg: &mut Config, options: &NetOptions) -> Result<(), NetError> {
     if let Some(users) = &options.users {
-        readable(users)?;
         set(
             cfg,
             "transport/auth/usrpwd/dictionary_file",
             &json(&users.display().to_string()),
         )?;
     }
+    let named = cfg
+        .get_json("transport/auth/usrpwd/dictionary_file")
+        .ok()
+        .and_then(|v| serde_json::from_str::<Option<String>>(&v).ok().flatten());
+    if let Some(path) = named {
+        dictionary(Path::new(&path))?;
+    }
     Ok(())
+}
+
+/// Checks a user dictionary: `user:password` lines, at least one of them
+/// (blank lines aside). Returns how many users it admits.
+fn dictionary(path: &Path) -> Result<usize, NetError> {
+    let text = readable(path)?;
+    let refuse = |detail: String| NetError::File {
+        path: path.to_path_buf(),
+        detail,
+    };
+    let mut users = 0;
+    for (n, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        match line.split_once(':') {
+            Some((user, password)) if !user.is_empty() && !password.is_empty() => users += 1,
+            _ => return Err(refuse(format!("line {} must be user:password", n + 1))),
+        }
+    }
+    if users == 0 {
+        return Err(refuse(
+            "holds no user:password line, so it would admit anyone".into(),
+        ));
+    }
+    Ok(users)
 }
 
 /// A worker: a client of the coordinator, never listening itself.
@@ -365,11 +400,25 @@ mod tests {
         };
         let open = router_config(&options).unwrap();
         assert_eq!(open_to_strangers(&open), ["tcp/0.0.0.0:7447"]);
-        options.users = Some(users);
+        options.users = Some(users.clone());
         assert!(open_to_strangers(&router_config(&options).unwrap()).is_empty());
         options.users = Some(dir.join("missing.txt"));
         let e = router_config(&options).unwrap_err().to_string();
         assert!(e.contains("missing.txt"), "{e}");
+        // An empty dictionary would admit anyone, so it is refused, as is a
+        // line that is not user:password.
+        for (text, why) in [
+            ("", "no user"),
+            ("\n  \n", "no user"),
+            ("a:b\nnobody\n", "line 2"),
+        ] {
+            std::fs::write(&users, text).unwrap();
+            options.users = Some(users.clone());
+            let e = router_config(&options).unwrap_err().to_string();
+            assert!(e.contains("users.txt") && e.contains(why), "{e}");
+            let e = coordinator_config(&options).unwrap_err().to_string();
+            assert!(e.contains(why), "{e}");
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -277,6 +277,10 @@ fn bad_experiment_files_are_named() {
     let missing = lander(&["experiment", "/nonexistent/paper.toml"]);
     assert!(!missing.status.success());
     assert!(stderr(&missing).contains("/nonexistent/paper.toml"));
+    // The OS's reason, said once; and no claim that it is a run's config.
+    let said = stderr(&missing);
+    assert_eq!(said.matches("No such file").count(), 1, "{said}");
+    assert!(!said.contains("config file"), "{said}");
     for (text, field) in [
         ("trials = 0", "trials"),
         ("methods = [\"ga\", \"sarsa\"]", "sarsa"),
@@ -297,6 +301,9 @@ fn bad_experiment_files_are_named() {
     let file = write_file(dir.path(), SMALL);
     let zero = run_experiment(&file, &dir.path().join("never"), &["--trials", "0"]);
     assert!(stderr(&zero).contains("trials"), "{}", stderr(&zero));
+    let none = run_experiment(&file, &dir.path().join("never"), &["--in-flight", "0"]);
+    assert!(!none.status.success());
+    assert!(stderr(&none).contains("--in-flight"), "{}", stderr(&none));
 }
 
 #[test]

@@ -312,6 +312,24 @@ fn bad_worker_options_are_refused() {
             vec!["run", "--workers", "1", "--deadline", "0"],
             "--deadline",
         ),
+        // Past what a Duration holds: refused, not a panic.
+        (
+            vec!["run", "--workers", "1", "--deadline", "1e99"],
+            "at most 86400 seconds",
+        ),
+        (vec!["run", "--threads", "5000"], "to 1024"),
+        (
+            vec!["run", "--workers", "1", "--users", "u.txt"],
+            "--users is for --transport zenoh",
+        ),
+        (
+            vec!["run", "--workers", "1", "--listen", "tcp/0.0.0.0:1"],
+            "--listen is for",
+        ),
+        (
+            vec!["bench", "--stress", "--kill-rate", "1e308"],
+            "--kill-rate must be 0 to 100",
+        ),
     ] {
         let out = iox.lander(&args);
         assert!(!out.status.success(), "{args:?} was accepted");
@@ -324,6 +342,18 @@ fn bad_worker_options_are_refused() {
         .unwrap();
     assert!(!out.status.success());
     assert!(stderr(&out).contains("--run"));
+    let long = "a".repeat(65);
+    for (args, needle) in [
+        (vec!["--run", &long], "1 to 64"),
+        (
+            vec!["--run", "somerun", "--credentials", "c.txt"],
+            "--credentials is for --transport zenoh",
+        ),
+    ] {
+        let out = iox.command("lander-worker").args(&args).output().unwrap();
+        assert!(!out.status.success(), "{args:?} was accepted");
+        assert!(stderr(&out).contains(needle), "{args:?}: {}", stderr(&out));
+    }
     let out = iox
         .command("lander-worker")
         .args(["--run", "somerun", "--cpu", "100000"])

@@ -240,4 +240,24 @@ fn bad_zenoh_options_are_refused() {
         "{}",
         stderr(&missing)
     );
+    // zenoh takes an empty dictionary as no authentication at all.
+    let empty = dir.path().join("users.txt");
+    std::fs::write(&empty, "\n").unwrap();
+    let open = iox.lander(&[
+        "run",
+        "--workers",
+        "1",
+        "--transport",
+        "zenoh",
+        "--users",
+        empty.to_str().unwrap(),
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(!open.status.success());
+    assert!(
+        stderr(&open).contains("would admit anyone"),
+        "{}",
+        stderr(&open)
+    );
 }

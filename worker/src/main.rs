@@ -1,6 +1,7 @@
 //! `lander-worker`: a worker process that flies landers for a coordinator.
 
 use clap::{Parser, ValueEnum};
+use lander_protocol::iox::check_run_id;
 use lander_protocol::net::NetOptions;
 use lander_worker::cpu;
 use lander_worker::serve::{self, Exit, Note};
@@ -75,17 +76,21 @@ fn main() -> ExitCode {
     // Before any thread starts, so that every thread inherits both.
     let placed = args.cpu.map(cpu::pin_to).transpose();
     let batch = cpu::run_as_batch_job();
-    if args.run.is_empty()
-        || !args
-            .run
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
-    {
-        eprintln!(
-            "lander-worker: error: --run must be letters, digits, '-' or '_' (got {:?})",
-            args.run
-        );
+    if let Err(e) = check_run_id(&args.run) {
+        eprintln!("lander-worker: error: --run {e}");
         return ExitCode::FAILURE;
+    }
+    if args.transport != Transport::Zenoh {
+        for (flag, given) in [
+            ("--connect", !args.connect.is_empty()),
+            ("--zenoh-config", args.zenoh_config.is_some()),
+            ("--credentials", args.credentials.is_some()),
+        ] {
+            if given {
+                eprintln!("lander-worker: error: {flag} is for --transport zenoh");
+                return ExitCode::FAILURE;
+            }
+        }
     }
     let id = args.id.unwrap_or_else(rand::random);
     let say = |msg: &str| eprintln!("lander-worker {id:016x}: {msg}");

@@ -82,6 +82,10 @@ pub fn experiment(args: ExperimentArgs) -> anyhow::Result<()> {
         0 => rayon_width(args.threads),
         n => n,
     };
+    anyhow::ensure!(
+        args.in_flight != Some(0),
+        "--in-flight must be at least 1: it is how many GA trials run at once"
+    );
     let in_flight = args.in_flight.unwrap_or(4 * width).max(1);
     let mut progress = Bars {
         bars: &bars,

@@ -6,13 +6,16 @@ use super::transport::pool_options;
 use anyhow::Context;
 use lander_coordinator::bench::{Mode, ModeEvaluator, Workload};
 use lander_coordinator::evaluator::InProcess;
-use lander_coordinator::pool::{worker_children, IpcPool};
+use lander_coordinator::pool::{kill_worker_child, worker_children, IpcPool};
 use rand::Rng;
 use serde::Serialize;
-use std::process::Command;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
+
+/// The most kills a second: a worker needs some milliseconds to start, so
+/// beyond this the workers would do little but die.
+const MAX_KILL_RATE: f64 = 100.0;
 
 pub struct StressArgs {
     pub workers: usize,
@@ -40,8 +43,8 @@ struct StressReport {
 
 pub fn stress(args: &StressArgs, work: &Workload) -> anyhow::Result<()> {
     anyhow::ensure!(
-        args.kill_rate.is_finite() && args.kill_rate >= 0.0,
-        "--kill-rate must be a number of kills per second, 0 or more (got {})",
+        (0.0..=MAX_KILL_RATE).contains(&args.kill_rate),
+        "--kill-rate must be 0 to {MAX_KILL_RATE} kills per second (got {:?})",
         args.kill_rate
     );
     let mut reference = Mode::new("inproc", ModeEvaluator::InProcess(InProcess::new(0)?));
@@ -138,11 +141,7 @@ fn kill_at_random(rate: f64, stop: &AtomicBool, kills: &AtomicU64) {
             continue;
         }
         let pid = workers[rng.random_range(0..workers.len())];
-        let killed = Command::new("kill")
-            .args(["-KILL", &pid.to_string()])
-            .status()
-            .is_ok_and(|s| s.success());
-        if killed {
+        if kill_worker_child(std::process::id(), pid) {
             kills.fetch_add(1, Ordering::Relaxed);
         }
     }

@@ -8,7 +8,7 @@ use indicatif::ProgressBar;
 use lander_coordinator::evaluator::{Backend, InProcess};
 use lander_coordinator::pool::zenoh::Zenoh;
 use lander_coordinator::pool::{IpcPool, Pool, PoolOptions, Say, DEPTH};
-use lander_protocol::iox::MAX_WORKERS;
+use lander_protocol::iox::{check_run_id, MAX_WORKERS};
 use lander_protocol::net::{coordinator_config, strangers_warning, NetOptions};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -20,6 +20,12 @@ pub enum Transport {
     /// The network, for workers on any host.
     Zenoh,
 }
+
+/// The longest `--deadline`: a day for one chunk is already no deadline.
+const MAX_DEADLINE_S: f64 = 86_400.0;
+
+/// Where a zenoh coordinator listens unless told otherwise: this host only.
+const DEFAULT_LISTEN: &str = "tcp/127.0.0.1:7447";
 
 #[derive(Args, Debug)]
 pub struct TransportArgs {
@@ -41,8 +47,9 @@ pub struct TransportArgs {
     /// How workers are reached: iceoryx2 on this host, zenoh from any host.
     #[arg(long, value_enum, default_value_t = Transport::Iceoryx2)]
     transport: Transport,
-    /// zenoh: where to listen for workers, such as tcp/0.0.0.0:7447.
-    #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7447")]
+    /// zenoh: where to listen for workers, such as tcp/0.0.0.0:7447
+    /// [default: tcp/127.0.0.1:7447].
+    #[arg(long, value_name = "ENDPOINT")]
     listen: Vec<String>,
     /// zenoh: a JSON5 zenoh configuration, for TLS and anything else.
     #[arg(long, value_name = "FILE")]
@@ -76,10 +83,19 @@ impl TransportArgs {
             self.workers
         );
         anyhow::ensure!(
-            self.deadline.is_finite() && self.deadline > 0.0,
-            "--deadline must be a positive number of seconds (got {})",
+            self.deadline.is_finite() && self.deadline > 0.0 && self.deadline <= MAX_DEADLINE_S,
+            "--deadline must be more than 0 and at most {MAX_DEADLINE_S} seconds (got {:?})",
             self.deadline
         );
+        if self.transport != Transport::Zenoh {
+            for (flag, given) in [
+                ("--listen", !self.listen.is_empty()),
+                ("--zenoh-config", self.zenoh_config.is_some()),
+                ("--users", self.users.is_some()),
+            ] {
+                anyhow::ensure!(!given, "{flag} is for --transport zenoh");
+            }
+        }
         if self.workers == 0 && !self.attach {
             anyhow::ensure!(
                 self.run_id.is_none(),
@@ -96,7 +112,10 @@ impl TransportArgs {
             "--attach and --workers N exclude each other: attach waits for workers started elsewhere"
         );
         let run_id = match &self.run_id {
-            Some(id) => check_run_id(id)?,
+            Some(id) => {
+                check_run_id(id).map_err(|e| anyhow::anyhow!("--run-id {e}"))?;
+                id.clone()
+            }
             None => format!("{:08x}", rand::random::<u32>()),
         };
         let deadline = Duration::from_secs_f64(self.deadline);
@@ -114,7 +133,11 @@ impl TransportArgs {
 
     fn zenoh_pool(&self, opts: PoolOptions, say: Say) -> anyhow::Result<Box<dyn Backend>> {
         let options = NetOptions {
-            listen: self.listen.clone(),
+            listen: if self.listen.is_empty() {
+                vec![DEFAULT_LISTEN.into()]
+            } else {
+                self.listen.clone()
+            },
             config_file: self.zenoh_config.clone(),
             users: self.users.clone(),
             ..NetOptions::default()
@@ -154,17 +177,4 @@ pub fn pool_options(
         max_respawns: 3 * workers.max(1),
         pin,
     })
-}
-
-fn check_run_id(id: &str) -> anyhow::Result<String> {
-    let ok = !id.is_empty()
-        && id.len() <= 64
-        && id
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
-    anyhow::ensure!(
-        ok,
-        "--run-id must be 1 to 64 letters, digits, '-' or '_' (got {id:?})"
-    );
-    Ok(id.to_string())
 }

@@ -55,9 +55,9 @@ impl Experiment {
     /// Reads and validates a TOML file.
     pub fn load(path: &Path) -> Result<Experiment, ConfigError> {
         let shown = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Read {
             path: shown.clone(),
-            source,
+            error,
         })?;
         let exp: Experiment = toml::from_str(&text).map_err(|e| ConfigError::Parse {
             path: shown.clone(),

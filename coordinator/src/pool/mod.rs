@@ -24,8 +24,8 @@ use lander_protocol::wire::{
 };
 use lander_protocol::{Action, Evaluation, TrainResult};
 use lander_worker::cpu::host_clock_ns;
-pub use spawn::worker_children;
 use spawn::Children;
+pub use spawn::{kill_worker_child, worker_children};
 use std::collections::{HashSet, VecDeque};
 use std::ops::Range;
 use std::path::PathBuf;

@@ -4,6 +4,7 @@
 //! of times, a replacement taking its predecessor's CPU.
 
 use crate::evaluator::EvalError;
+use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -135,17 +136,55 @@ pub fn worker_children(parent: u32) -> Vec<u32> {
     };
     dir.flatten()
         .filter_map(|e| e.file_name().to_str()?.parse::<u32>().ok())
-        .filter(|pid| {
-            let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
-                return false;
-            };
-            // pid (comm) state ppid …; comm may hold spaces, so split at the last ')'.
-            let Some((head, tail)) = stat.rsplit_once(')') else {
-                return false;
-            };
-            let mut fields = tail.split_whitespace();
-            let state = fields.next();
-            head.ends_with("(lander-worker") && state != Some("Z") && fields.next() == Some(&parent)
-        })
+        .filter(|&pid| is_worker_child(&parent, pid))
         .collect()
+}
+
+/// Whether `pid` is a live `lander-worker` whose parent is `parent`.
+fn is_worker_child(parent: &str, pid: u32) -> bool {
+    let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+        return false;
+    };
+    // pid (comm) state ppid …; comm may hold spaces, so split at the last ')'.
+    let Some((head, tail)) = stat.rsplit_once(')') else {
+        return false;
+    };
+    let mut fields = tail.split_whitespace();
+    let state = fields.next();
+    head.ends_with("(lander-worker") && state != Some("Z") && fields.next() == Some(parent)
+}
+
+/// SIGKILLs `pid` if it is a live `lander-worker` child of `parent`; true
+/// if it did. The check and the kill go through one pidfd, which names the
+/// process it was opened on and no later one: a pid freed by a reaped
+/// worker and reused by another process is never hit.
+pub fn kill_worker_child(parent: u32, pid: u32) -> bool {
+    let Ok(raw) = libc::pid_t::try_from(pid) else {
+        return false;
+    };
+    // SAFETY: pidfd_open takes a pid and flags and returns a new file
+    // descriptor, or -1 without side effects.
+    let fd = unsafe { libc::syscall(libc::SYS_pidfd_open, raw, 0) };
+    let Ok(fd) = i32::try_from(fd) else {
+        return false;
+    };
+    if fd < 0 {
+        return false;
+    }
+    // SAFETY: `fd` was just opened and nothing else owns it.
+    let fd = unsafe { OwnedFd::from_raw_fd(fd) };
+    if !is_worker_child(&parent.to_string(), pid) {
+        return false;
+    }
+    // SAFETY: a valid pidfd, a signal number, no siginfo, no flags.
+    let sent = unsafe {
+        libc::syscall(
+            libc::SYS_pidfd_send_signal,
+            fd.as_raw_fd(),
+            libc::SIGKILL,
+            std::ptr::null::<libc::siginfo_t>(),
+            0,
+        )
+    };
+    sent == 0
 }
