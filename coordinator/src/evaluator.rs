@@ -43,6 +43,8 @@ pub enum EvalError {
     Ragged,
     #[error("zenoh: {0}")]
     Net(String),
+    #[error("stopped by SIGINT or SIGTERM")]
+    Interrupted,
 }
 
 /// Flies batches and returns one evaluation per genome, in order.
@@ -113,6 +115,9 @@ impl Evaluator for InProcess {
         &mut self,
         batches: Vec<Batch<'_>>,
     ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
+        if crate::stop::asked() {
+            return Err(EvalError::Interrupted);
+        }
         Ok(self.pool.install(|| {
             batches
                 .into_par_iter()
@@ -144,6 +149,10 @@ impl Trainer for InProcess {
                     jobs.par_iter()
                         .enumerate()
                         .for_each_with(tx, |tx, (i, job)| {
+                            // Trials under way finish; no new one starts.
+                            if crate::stop::asked() {
+                                return;
+                            }
                             // The receiver outlives the loop; a failed send
                             // would only mean it stopped listening.
                             let _ = tx.send((i, run_training(job)));
@@ -155,6 +164,9 @@ impl Trainer for InProcess {
                 results[i] = Some(result);
             }
         });
+        if crate::stop::asked() {
+            return Err(EvalError::Interrupted);
+        }
         Ok(results.into_iter().flatten().collect())
     }
 }

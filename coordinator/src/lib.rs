@@ -10,6 +10,7 @@
 //! - [`report`]: what a run writes: JSON lines, `best.json`, the summary.
 //! - [`experiment`]: many paired trials, resumable, with tables, plots and a report.
 //! - [`replay`]: flights traced for replays.
+//! - [`stop`]: Ctrl-C and SIGTERM, seen by the evaluators.
 
 pub mod bench;
 pub mod config;
@@ -19,4 +20,5 @@ pub mod ga;
 pub mod pool;
 pub mod replay;
 pub mod report;
+pub mod stop;
 pub mod trial;

@@ -3,7 +3,8 @@
 //! hang, or come and go.
 
 use lander_tests::{
-    json_out, lines_in, signal, stderr, wait_until, without_wall_time, worker_children, Iox,
+    json_lines, json_out, lines_in, signal, stderr, wait_until, without_wall_time, worker_children,
+    Iox,
 };
 use serde_json::Value;
 use std::fs;
@@ -120,6 +121,33 @@ fn a_clean_run_leaves_no_processes_and_no_files() {
     }
     assert_eq!(iox.shm_files(), Vec::<String>::new());
     assert_eq!(iox.root_files(), Vec::<std::path::PathBuf>::new());
+}
+
+#[test]
+fn ctrl_c_stops_the_run_cleanly_with_what_it_flew_kept() {
+    let iox = Iox::new("sigint");
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = never_lands(dir.path());
+    let (child, workers) = under_way(&iox, dir.path(), &["--config", &cfg], 5);
+    signal(child.id(), "INT");
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("stopped by SIGINT"),
+        "{}",
+        stderr(&out)
+    );
+    for worker in workers {
+        assert!(
+            !Path::new(&format!("/proc/{worker}")).exists(),
+            "worker {worker} outlived the run"
+        );
+    }
+    assert_eq!(iox.shm_files(), Vec::<String>::new());
+    assert_eq!(iox.root_files(), Vec::<std::path::PathBuf>::new());
+    // Every generation flown before the signal is in the log, whole.
+    let log = json_lines(&dir.path().join("generations.jsonl"));
+    assert!(log.len() >= 5, "{} generations kept", log.len());
 }
 
 /// Starts `lander run` with `args` on two spawned workers, writing to

@@ -256,6 +256,9 @@ impl<T: Transport> Pool<T> {
         let end = Instant::now() + patience;
         let mut todo = VecDeque::new();
         while self.links.len() < n {
+            if crate::stop::asked() {
+                return Err(EvalError::Interrupted);
+            }
             if Instant::now() >= end {
                 return Err(EvalError::WorkersLate {
                     wanted: n,
@@ -455,6 +458,9 @@ impl<T: Transport> Pool<T> {
         let mut done: Vec<Option<R>> = (0..jobs.len()).map(|_| None).collect();
         let mut remaining = jobs.len();
         while remaining > 0 {
+            if crate::stop::asked() {
+                return Err(EvalError::Interrupted);
+            }
             self.accept()?;
             self.reap(&mut todo)?;
             for link in &mut self.links {
