@@ -1,5 +1,6 @@
 //! What a run writes: `generations.jsonl` as it goes, then `best.json`, and
-//! the one-object JSON summary printed by `lander run --json`.
+//! the one-object JSON summary printed by `lander run --json`; and the list
+//! of every file a run owns in its folder, so a new run can clear them.
 
 use crate::config::RunConfig;
 use crate::trial::{Generation, TrialResult};
@@ -60,7 +61,8 @@ impl Summary {
     }
 }
 
-/// `best.json`: the best individual of the last attempt and its flight.
+/// `best.json`: the best individual of the last attempt, its flight, and
+/// the configuration the trial ran with.
 #[derive(Debug, Serialize)]
 pub struct BestRecord<'a> {
     #[serde(flatten)]
@@ -70,18 +72,50 @@ pub struct BestRecord<'a> {
     pub restart: u64,
     pub genome: String,
     pub outcome: &'a Outcome,
+    /// The whole configuration, not just the world: `lander replay --run`
+    /// must fly the genome under the same world and scoring, and parse it
+    /// with the same `ga.max_duration`, without the user passing --config
+    /// again.
+    pub config: &'a RunConfig,
 }
 
 impl<'a> BestRecord<'a> {
-    pub fn new(cfg: &RunConfig, result: &'a TrialResult) -> BestRecord<'a> {
+    pub fn new(cfg: &'a RunConfig, result: &'a TrialResult) -> BestRecord<'a> {
         BestRecord {
             id: TrialId::new(cfg, result),
             generation: result.best.index,
             restart: result.restarts,
             genome: format_genome(&result.best.genome),
             outcome: &result.best.outcome,
+            config: cfg,
         }
     }
+}
+
+/// Every file `lander run` writes into its folder, for any method: the
+/// GA's log and best lander, Q(λ)'s episodes and summary.
+pub const RUN_OUTPUTS: [&str; 4] = [
+    "generations.jsonl",
+    "best.json",
+    "episodes.jsonl",
+    "summary.json",
+];
+
+/// Removes the [`RUN_OUTPUTS`] an earlier run left in `dir` and returns
+/// their names. A run rewrites only some of them, and an interrupted run
+/// none, so without this a folder could pair one run's log with another
+/// run's best lander, and a replay would draw the stale one.
+pub fn clear_run_outputs(dir: &Path) -> Result<Vec<&'static str>, WriteError> {
+    let mut removed = Vec::new();
+    for name in RUN_OUTPUTS {
+        let path = dir.join(name);
+        match std::fs::remove_file(&path) {
+            Ok(()) => removed.push(name),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(at(&path)(e)),
+        }
+    }
+    Ok(removed)
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -131,4 +165,24 @@ pub fn write_json(path: &Path, value: &impl Serialize) -> Result<(), WriteError>
     text.push('\n');
     std::fs::write(&tmp, text).map_err(at(&tmp))?;
     std::fs::rename(&tmp, path).map_err(at(path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clearing_removes_only_a_runs_own_files() {
+        let dir = std::env::temp_dir().join(format!("lander-clear-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for name in ["best.json", "summary.json", "notes.txt"] {
+            std::fs::write(dir.join(name), "x").unwrap();
+        }
+        let removed = clear_run_outputs(&dir).unwrap();
+        assert_eq!(removed, ["best.json", "summary.json"]);
+        assert!(!dir.join("best.json").exists());
+        assert!(dir.join("notes.txt").exists(), "not a run's file");
+        assert!(clear_run_outputs(&dir).unwrap().is_empty());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

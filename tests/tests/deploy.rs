@@ -933,6 +933,9 @@ fn the_examples_guard_what_their_comments_say() {
     };
     let plain = example("router.json5", "plain.json5", dir, dir, &[]);
     assert_eq!(load(plain, &[], net::router_config), ["tcp/0.0.0.0:7447"]);
+    // The dictionary the uncommented line names must exist and admit
+    // someone: an empty one is refused, since zenoh would then admit anyone.
+    fs::write(dir.join("users.txt"), "worker:secret\n").unwrap();
     let guarded = example(
         "router.json5",
         "guarded.json5",

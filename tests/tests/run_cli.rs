@@ -242,3 +242,111 @@ fn qlearning_swaps_in_and_repeats_exactly() {
         assert!(lines[0].get(key).is_some(), "episodes.jsonl lacks {key}");
     }
 }
+
+#[test]
+fn a_start_no_run_could_draw_is_refused_naming_the_flag() {
+    for (x0, pad_x, height, needle) in [
+        ("-5", "100", "300", "--x0"),
+        ("400", "100", "300", "--x0"),
+        ("5", "10", "300", "--pad-x"),
+        ("5", "350", "300", "--pad-x"),
+        ("5", "100", "40", "--height"),
+    ] {
+        let out = lander(&[
+            "fly", "--genome", "1:3", "--x0", x0, "--pad-x", pad_x, "--height", height,
+        ]);
+        assert!(
+            !out.status.success(),
+            "x0 {x0}, pad {pad_x}, height {height}"
+        );
+        let e = stderr(&out);
+        assert!(e.contains(needle) && !e.contains("panicked"), "{e}");
+    }
+    // The edges SPEC §1 can draw are flown.
+    let edge = lander(&["fly", "--genome", "1:3", "--x0", "0", "--pad-x", "50"]);
+    assert!(edge.status.success(), "{}", stderr(&edge));
+}
+
+#[test]
+fn replaying_a_run_flies_it_in_the_world_the_run_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("long.toml");
+    fs::write(&cfg, "[ga]\nmax_duration = 60\n").unwrap();
+    let run = dir.path().join("run");
+    let summary = run_in(
+        &run,
+        &[
+            "--config",
+            cfg.to_str().unwrap(),
+            "--max-generations",
+            "3",
+            "--max-restarts",
+            "0",
+        ],
+    );
+    let best: serde_json::Value =
+        serde_json::from_slice(&fs::read(run.join("best.json")).unwrap()).unwrap();
+    assert_eq!(best["config"]["ga"]["max_duration"], 60);
+    // Its genome is one only that configuration admits.
+    let genome = summary["best_genome"].as_str().unwrap();
+    let longest = genome
+        .split(',')
+        .map(|g| g.split_once(':').unwrap().1.parse::<u32>().unwrap())
+        .max()
+        .unwrap();
+    assert!(longest > 30, "no gene past the default bound in {genome}");
+    let (x0, pad_x) = (summary["x0"].to_string(), summary["pad_x"].to_string());
+    let default_world = lander(&["fly", "--genome", genome, "--x0", &x0, "--pad-x", &pad_x]);
+    assert!(!default_world.status.success());
+
+    let svg = dir.path().join("best.svg");
+    let (run, svg) = (run.to_str().unwrap(), svg.to_str().unwrap());
+    let replayed = lander(&["replay", "--run", run, "--out", svg]);
+    assert!(replayed.status.success(), "{}", stderr(&replayed));
+    assert!(fs::read_to_string(svg).unwrap().contains("<svg"));
+    let both = lander(&["replay", "--run", run, "--config", cfg.to_str().unwrap()]);
+    assert!(!both.status.success());
+    assert!(
+        stderr(&both).contains("without --config"),
+        "{}",
+        stderr(&both)
+    );
+}
+
+#[test]
+fn a_run_replaces_an_earlier_runs_outputs_and_leaves_an_experiment_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    run_in(
+        dir.path(),
+        &["--max-generations", "2", "--max-restarts", "0"],
+    );
+    assert!(dir.path().join("best.json").exists());
+    let out = dir.path().to_str().unwrap();
+    let learn = lander(&[
+        "run",
+        "--method",
+        "qlearning",
+        "--episodes",
+        "3",
+        "--out",
+        out,
+    ]);
+    assert!(learn.status.success(), "{}", stderr(&learn));
+    assert!(stderr(&learn).contains("removed"), "{}", stderr(&learn));
+    for gone in ["best.json", "generations.jsonl"] {
+        assert!(!dir.path().join(gone).exists(), "{gone} outlived its run");
+    }
+    assert!(dir.path().join("episodes.jsonl").exists());
+
+    let experiment = tempfile::tempdir().unwrap();
+    fs::write(experiment.path().join("experiment.json"), "{}").unwrap();
+    let out = experiment.path().to_str().unwrap();
+    let refused = lander(&["run", "--max-generations", "1", "--out", out]);
+    assert!(!refused.status.success());
+    assert!(
+        stderr(&refused).contains("experiment.json"),
+        "{}",
+        stderr(&refused)
+    );
+    assert!(!experiment.path().join("generations.jsonl").exists());
+}

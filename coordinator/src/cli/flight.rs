@@ -1,13 +1,15 @@
-//! `lander fly` and `lander guide`: one genome, for inspection.
+//! `lander fly` and `lander guide`: one genome, for inspection; and the
+//! check that a start given by hand is one SPEC §1 could draw, which
+//! `lander replay` shares.
 
-use anyhow::Context;
+use anyhow::{anyhow, ensure, Context};
 use clap::Args;
-use lander_coordinator::config::RunConfig;
+use lander_coordinator::config::{ConfigError, RunConfig};
 use lander_protocol::stream::streams;
 use lander_protocol::{format_genome, parse_genome, Env, Gene, StreamKey};
-use lander_worker::{fly_traced, guide as guide_pass};
+use lander_worker::{fly_traced, guide as guide_pass, HULL};
 use serde::Serialize;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Where a single flight happens.
 #[derive(Args, Debug)]
@@ -15,15 +17,18 @@ pub struct FlightArgs {
     /// The genome, as `action:duration` pairs: `"1:12,2:30,3:4"`.
     #[arg(long)]
     genome: String,
-    /// Start column.
-    #[arg(long)]
+    /// Start column, in [0, W).
+    #[arg(long, allow_negative_numbers = true)]
     x0: f64,
-    /// Pad centre.
-    #[arg(long)]
+    /// Pad centre, in [pad_margin, W − pad_margin): [50, 350) by default.
+    #[arg(long, allow_negative_numbers = true)]
     pad_x: f64,
-    #[arg(long)]
+    /// World width W in pixels [default: 400, or the --config file's].
+    #[arg(long, allow_negative_numbers = true)]
     width: Option<f64>,
-    #[arg(long)]
+    /// World height H in pixels; the lander starts at H − 50 [default:
+    /// 300, or the --config file's].
+    #[arg(long, allow_negative_numbers = true)]
     height: Option<f64>,
     /// A TOML run configuration for the world's other constants.
     #[arg(long, value_name = "FILE")]
@@ -32,25 +37,112 @@ pub struct FlightArgs {
 
 impl FlightArgs {
     fn resolve(&self) -> anyhow::Result<(Env, RunConfig, Vec<Gene>)> {
-        let mut cfg = match &self.config {
-            Some(path) => RunConfig::load(path)?,
-            None => RunConfig::default(),
-        };
+        let mut cfg = load(self.config.as_deref())?;
         cfg.world.width = self.width.unwrap_or(cfg.world.width);
         cfg.world.height = self.height.unwrap_or(cfg.world.height);
-        cfg.validate()?;
-        for (name, v) in [("--x0", self.x0), ("--pad-x", self.pad_x)] {
-            anyhow::ensure!(v.is_finite(), "{name} must be a finite number (got {v})");
-        }
-        let genes = parse_genome(&self.genome, cfg.ga.max_duration).context("--genome")?;
+        cfg.validate().map_err(|e| self.flagged(e))?;
         let env = Env {
             world: cfg.world,
             scoring: cfg.scoring,
             x0: self.x0,
             pad_x: self.pad_x,
         };
+        let height = if self.height.is_some() {
+            "--height"
+        } else {
+            "world.height"
+        };
+        check_start(&env, &StartNames::flags(height))?;
+        let genes = parse_genome(&self.genome, cfg.ga.max_duration).context("--genome")?;
         Ok((env, cfg, genes))
     }
+
+    /// Names the flag behind a world field it set, and shows the value as
+    /// `{:?}` does (`1e308`): the check's own message spells a large
+    /// number out in full, 309 digits for 1e308.
+    fn flagged(&self, e: ConfigError) -> anyhow::Error {
+        let flags = [
+            ("world.width", "--width", self.width),
+            ("world.height", "--height", self.height),
+        ];
+        if let ConfigError::Invalid(p) = &e {
+            for (field, flag, value) in flags {
+                if let (true, Some(v)) = (p.field == field, value) {
+                    let problem = p.problem.split(" (got ").next().unwrap_or(&p.problem);
+                    return anyhow!("{flag} {problem} (got {v:?})");
+                }
+            }
+        }
+        // Another field, such as world.pad_margin, that a flag's value
+        // made wrong: say which flags were given.
+        let given: Vec<String> = flags
+            .iter()
+            .filter_map(|(_, flag, value)| Some(format!("{flag} {:?}", (*value)?)))
+            .collect();
+        if given.is_empty() {
+            e.into()
+        } else {
+            anyhow::Error::from(e).context(format!("with {}", given.join(", ")))
+        }
+    }
+}
+
+/// The run configuration in `path`, or the defaults.
+pub(super) fn load(path: Option<&Path>) -> Result<RunConfig, ConfigError> {
+    path.map_or_else(|| Ok(RunConfig::default()), RunConfig::load)
+}
+
+/// What the numbers of a start are called where they came from: flags on
+/// the command line, or fields of a file.
+pub(super) struct StartNames<'a> {
+    pub x0: &'a str,
+    pub pad_x: &'a str,
+    pub height: &'a str,
+}
+
+impl<'a> StartNames<'a> {
+    /// The flags, with `height` the flag or field the world's height came from.
+    pub fn flags(height: &'a str) -> StartNames<'a> {
+        StartNames {
+            x0: "--x0",
+            pad_x: "--pad-x",
+            height,
+        }
+    }
+}
+
+/// Refuses a start SPEC §1 would never draw: `x0` outside `[0, W)`,
+/// `pad_x` outside `[pad_margin, W − pad_margin)`, or a world too low for
+/// the upside-down lander to start with its hull above the ground. Such a
+/// flight still flies, to numbers that mean nothing: a fitness of −1e308
+/// for a pad 1e308 px away, a touchdown on the first tick.
+pub(super) fn check_start(env: &Env, names: &StartNames) -> anyhow::Result<()> {
+    let w = &env.world;
+    ensure!(
+        (0.0..w.width).contains(&env.x0),
+        "{} must be in [0, {:?}), the world's width (got {:?})",
+        names.x0,
+        w.width,
+        env.x0
+    );
+    let (low, high) = (w.pad_margin, w.width - w.pad_margin);
+    ensure!(
+        (low..high).contains(&env.pad_x),
+        "{} must be in [{low:?}, {high:?}), world.pad_margin from either edge (got {:?})",
+        names.pad_x,
+        env.pad_x
+    );
+    // Upside down (rot = π) the hull's top, its largest model y, is lowest.
+    let top = HULL.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
+    let least = w.ground_y + w.start_drop + w.hull_scale * top;
+    ensure!(
+        w.height > least,
+        "{} must be more than {least:?} so that the lander, starting \
+         world.start_drop below the top, is above world.ground_y (got {:?})",
+        names.height,
+        w.height
+    );
+    Ok(())
 }
 
 #[derive(Args, Debug)]
@@ -131,27 +223,34 @@ pub struct GuideArgs {
     #[command(flatten)]
     flight: FlightArgs,
     /// Probability of keeping a gene's action when R prefers another; with
-    /// 0 the pass is greedy and deterministic.
+    /// 0 the pass is greedy and deterministic [default: the --config file's
+    /// guided.epsilon, else 0.1].
     #[arg(long)]
-    epsilon: f64,
+    epsilon: Option<f64>,
     /// The random stream `(seed, trial, restart, generation, index)` of the
-    /// pass, as in a run.
+    /// pass, as in a run: its seed.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// The stream's trial number.
     #[arg(long, default_value_t = 0)]
     trial: u64,
+    /// The stream's restart, counted from 0.
     #[arg(long, default_value_t = 0)]
     restart: u64,
+    /// The stream's generation within its restart.
     #[arg(long, default_value_t = 0)]
     generation: u64,
+    /// The individual's index in its population, which picks its stream.
     #[arg(long, default_value_t = 0)]
     index: u64,
 }
 
 pub fn guide(args: GuideArgs) -> anyhow::Result<()> {
     let (env, mut cfg, genes) = args.flight.resolve()?;
-    cfg.guided.epsilon = args.epsilon;
-    cfg.validate().context("--epsilon")?;
+    if let Some(epsilon) = args.epsilon {
+        cfg.guided.epsilon = epsilon;
+        cfg.validate().context("--epsilon")?;
+    }
     let key = StreamKey::new(args.seed, args.trial, args.restart, args.generation);
     let mut rng = key.rng(streams::guide(args.index));
     let guided = guide_pass(&env, &cfg.guided, &genes, &mut rng);

@@ -103,7 +103,8 @@ pub fn learn(
         landing_rate_last_100: training.landing_rate_last_100,
         wall_s: started.elapsed().as_secs_f64(),
     };
-    write_json(&out.join("summary.json"), &summary)?;
+    let summary_path = out.join("summary.json");
+    write_json(&summary_path, &summary)?;
     if json {
         println!("{}", serde_json::to_string(&summary)?);
     } else {
@@ -116,7 +117,11 @@ pub fn learn(
             "qlearning trial {} (seed {}): {} episodes, {first}; landing rate over the last 100: {:.2}; {:.1}s",
             summary.trial, summary.seed, summary.episodes, summary.landing_rate_last_100, summary.wall_s
         );
-        println!("wrote {}", log_path.display());
+        println!(
+            "wrote {} and {}",
+            log_path.display(),
+            summary_path.display()
+        );
     }
     Ok(())
 }

@@ -1,9 +1,10 @@
 //! `lander replay`: draws one flight as an SVG or an animated HTML page,
 //! from a genome given on the command line or the best lander of a run or
-//! an experiment folder.
+//! an experiment folder, flown in the world that folder records.
 
+use super::flight::{check_start, load, StartNames};
 use anyhow::{bail, Context};
-use clap::Args;
+use clap::{ArgGroup, Args};
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::experiment::outputs::ordered;
 use lander_coordinator::experiment::{Experiment, Store};
@@ -15,23 +16,45 @@ use lander_report::replay::{flight_html, flight_svg};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
+/// Two modes, one of which must be chosen; the usage spells out both, since
+/// clap's own would show only one.
 #[derive(Args, Debug)]
+#[command(
+    group(ArgGroup::new("flight").required(true).args(["genome", "run"])),
+    override_usage = "lander replay --run <DIR> [--out <FILE>]\n       \
+                      lander replay --genome <GENOME> --x0 <X0> --pad-x <PAD_X> \
+                      [--config <FILE>] [--out <FILE>]"
+)]
 pub struct ReplayArgs {
-    /// The genome, as `action:duration` pairs: `"1:12,2:30,3:4"`.
+    /// The genome, as `action:duration` pairs: `"1:12,2:30,3:4"`; needs
+    /// --x0 and --pad-x.
     #[arg(long, requires_all = ["x0", "pad_x"], conflicts_with = "run")]
     genome: Option<String>,
-    /// Start column.
-    #[arg(long)]
+    /// Start column for --genome, in [0, W).
+    #[arg(
+        long,
+        requires = "genome",
+        conflicts_with = "run",
+        allow_negative_numbers = true
+    )]
     x0: Option<f64>,
-    /// Pad centre.
-    #[arg(long)]
+    /// Pad centre for --genome, in [pad_margin, W − pad_margin): [50, 350)
+    /// by default.
+    #[arg(
+        long,
+        requires = "genome",
+        conflicts_with = "run",
+        allow_negative_numbers = true
+    )]
     pad_x: Option<f64>,
     /// A run folder (`lander run --out`) or an experiment folder
-    /// (`lander experiment --out`): replays its best lander.
-    #[arg(long, value_name = "DIR", required_unless_present = "genome")]
+    /// (`lander experiment --out`): replays its best lander in the world
+    /// its run recorded.
+    #[arg(long, value_name = "DIR")]
     run: Option<PathBuf>,
-    /// A TOML run configuration for the world's constants (for --genome,
-    /// or a run made with --config).
+    /// A TOML run configuration for the world's constants, for --genome.
+    /// Refused with --run: a folder records its own (only a best.json
+    /// from before runs recorded it takes one).
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Where to draw it: `.svg` for the trajectory and the lander at
@@ -48,6 +71,10 @@ struct BestJson {
     x0: f64,
     pad_x: f64,
     genome: String,
+    /// The configuration the run used; absent from a best.json written
+    /// before runs recorded it.
+    #[serde(default)]
+    config: Option<RunConfig>,
 }
 
 pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
@@ -69,67 +96,46 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn config(args: &ReplayArgs) -> anyhow::Result<RunConfig> {
-    Ok(match &args.config {
-        Some(path) => RunConfig::load(path)?,
-        None => RunConfig::default(),
-    })
-}
-
 fn from_genome(args: &ReplayArgs) -> anyhow::Result<Flight> {
     let (Some(genome), Some(x0), Some(pad_x)) = (&args.genome, args.x0, args.pad_x) else {
-        bail!("give --genome with --x0 and --pad-x, or --run DIR");
+        bail!("give --run DIR, or --genome with --x0 and --pad-x");
     };
-    for (name, v) in [("--x0", x0), ("--pad-x", pad_x)] {
-        anyhow::ensure!(v.is_finite(), "{name} must be a finite number (got {v})");
-    }
-    let cfg = config(args)?;
-    let genes = parse_genome(genome, cfg.ga.max_duration).context("--genome")?;
+    let cfg = load(args.config.as_deref())?;
     let env = Env {
         world: cfg.world,
         scoring: cfg.scoring,
         x0,
         pad_x,
     };
+    check_start(&env, &StartNames::flags("world.height"))?;
+    let genes = parse_genome(genome, cfg.ga.max_duration).context("--genome")?;
     let (mut flight, outcome) = trace(&env, &genes, String::new());
-    flight.title = format!(
-        "x0 {x0}, pad {pad_x}: {}",
-        if outcome.safe {
-            "landed safely"
-        } else {
-            "crashed"
-        }
-    );
+    flight.title = format!("x0 {x0}, pad {pad_x}: {}", ending(outcome.safe));
     Ok(flight)
+}
+
+fn ending(safe: bool) -> &'static str {
+    if safe {
+        "landed safely"
+    } else {
+        "crashed"
+    }
 }
 
 fn from_folder(dir: &Path, args: &ReplayArgs) -> anyhow::Result<Flight> {
     let best = dir.join("best.json");
     if best.exists() {
-        let text = std::fs::read_to_string(&best)
-            .with_context(|| format!("reading {}", best.display()))?;
-        let b: BestJson = serde_json::from_str(&text)
-            .with_context(|| format!("{} is not a run's best.json", best.display()))?;
-        let cfg = config(args)?;
-        let genes = parse_genome(&b.genome, cfg.ga.max_duration)
-            .with_context(|| format!("{}: genome", best.display()))?;
-        let env = Env {
-            world: cfg.world,
-            scoring: cfg.scoring,
-            x0: b.x0,
-            pad_x: b.pad_x,
-        };
-        let (mut flight, outcome) = trace(&env, &genes, String::new());
-        let ending = if outcome.safe {
-            "landed safely"
-        } else {
-            "crashed"
-        };
-        flight.title = format!("{}, trial {}: {ending}", label(&b.method), b.trial);
-        return Ok(flight);
+        return from_best(&best, args.config.as_deref());
     }
     let definition = dir.join("experiment.json");
     if definition.exists() {
+        if args.config.is_some() {
+            bail!(
+                "{} records the experiment's configuration; replay {} without --config",
+                definition.display(),
+                dir.display()
+            );
+        }
         let text = std::fs::read_to_string(&definition)
             .with_context(|| format!("reading {}", definition.display()))?;
         let exp: Experiment = serde_json::from_str(&text)
@@ -138,8 +144,71 @@ fn from_folder(dir: &Path, args: &ReplayArgs) -> anyhow::Result<Flight> {
         return best_landing(&exp, &ordered(&exp, records))
             .with_context(|| format!("{} has no GA trial to replay", dir.display()));
     }
+    if dir.join("episodes.jsonl").exists() {
+        bail!(
+            "{} holds a Q(λ) run (episodes.jsonl), which has no genome to replay",
+            dir.display()
+        );
+    }
     bail!(
         "{} holds neither a run (best.json) nor an experiment (experiment.json)",
         dir.display()
     )
+}
+
+/// A run's best lander, flown in the world the run recorded.
+fn from_best(path: &Path, config: Option<&Path>) -> anyhow::Result<Flight> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let b: BestJson = serde_json::from_str(&text)
+        .with_context(|| format!("{} is not a run's best.json", path.display()))?;
+    let cfg = recorded_config(path, b.config, config)?;
+    let genes = parse_genome(&b.genome, cfg.ga.max_duration)
+        .with_context(|| format!("{}: genome", path.display()))?;
+    let env = Env {
+        world: cfg.world,
+        scoring: cfg.scoring,
+        x0: b.x0,
+        pad_x: b.pad_x,
+    };
+    let (mut flight, outcome) = trace(&env, &genes, String::new());
+    flight.title = format!(
+        "{}, trial {}: {}",
+        label(&b.method),
+        b.trial,
+        ending(outcome.safe)
+    );
+    Ok(flight)
+}
+
+/// The configuration to replay a best.json in: the one it records, checked
+/// as a run checks its own. A --config beside it is refused rather than
+/// preferred or ignored, since either would fly a different world than the
+/// run did without saying so. Only a best.json from before runs recorded
+/// their configuration needs --config, for a run made with one.
+fn recorded_config(
+    path: &Path,
+    recorded: Option<RunConfig>,
+    given: Option<&Path>,
+) -> anyhow::Result<RunConfig> {
+    match (recorded, given) {
+        (Some(cfg), None) => {
+            cfg.validate()
+                .with_context(|| format!("{}: config", path.display()))?;
+            Ok(cfg)
+        }
+        (Some(_), Some(_)) => bail!(
+            "{} records the configuration its run used; replay it without --config",
+            path.display()
+        ),
+        (None, Some(file)) => Ok(RunConfig::load(file)?),
+        (None, None) => {
+            eprintln!(
+                "note: {} records no configuration (an older run); replaying in the default \
+                 world, so give --config FILE if the run used one",
+                path.display()
+            );
+            Ok(RunConfig::default())
+        }
+    }
 }

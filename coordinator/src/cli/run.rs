@@ -1,13 +1,16 @@
-//! `lander run`: one trial, with a progress bar, written to a folder.
+//! `lander run`: one trial, with a progress bar, written to a folder that
+//! then holds that run's outputs and nothing of an earlier run's.
 
 use super::transport::TransportArgs;
-use anyhow::Context;
+use anyhow::{bail, Context};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lander_coordinator::config::{Approach, RunConfig};
-use lander_coordinator::report::{write_json, BestRecord, GenerationLog, Summary};
+use lander_coordinator::report::{
+    clear_run_outputs, write_json, BestRecord, GenerationLog, Summary,
+};
 use lander_coordinator::trial::{run_trial, Generation};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(Args, Debug)]
@@ -22,11 +25,13 @@ pub struct RunArgs {
     /// Q-learning episodes per trial (SPEC: 5000).
     #[arg(long)]
     episodes: Option<u32>,
+    /// The run's seed; every random draw of the trial comes from it [default: 1].
     #[arg(long)]
     seed: Option<u64>,
     /// Trial number; `x0` and `pad_x` come from (seed, trial).
     #[arg(long)]
     trial: Option<u64>,
+    /// Genomes per generation [default: 100].
     #[arg(long)]
     population: Option<usize>,
     /// Evaluation threads; 0 means one per core.
@@ -38,7 +43,8 @@ pub struct RunArgs {
     /// Restarts before the trial ends unlanded; 0 is a single attempt [default: 9].
     #[arg(long)]
     max_restarts: Option<u64>,
-    /// Output folder [default: runs/<method>-seed<seed>-trial<trial>].
+    /// Output folder [default: runs/<method>-seed<seed>-trial<trial>]. An
+    /// earlier run's outputs in it are replaced.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// Print one JSON summary object on stdout.
@@ -96,10 +102,12 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     });
     if cfg.method == Approach::Qlearning {
         let pool = args.transport.pool(&ProgressBar::hidden())?;
+        prepare(&out)?;
         return super::learning::learn(&cfg, &out, args.json, pool);
     }
     let bar = progress_bar(cfg.ga.max_generations);
     let mut evaluator = args.transport.evaluator(cfg.threads, &bar)?;
+    prepare(&out)?;
     let mut log = GenerationLog::create(&out)?;
     let started = Instant::now();
     let result = run_trial(&cfg, evaluator.as_mut(), &mut |g: &Generation| {
@@ -133,6 +141,29 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
             "wrote {} and {}",
             out.join("generations.jsonl").display(),
             best_path.display()
+        );
+    }
+    Ok(())
+}
+
+/// Readies `out` for this run, once the configuration and the workers are
+/// known to be good, so a run that cannot start leaves an earlier run's
+/// results alone. An experiment's folder is refused: its tables share
+/// names with a run's files (`generations.jsonl`, `summary.json`).
+fn prepare(out: &Path) -> anyhow::Result<()> {
+    if out.join("experiment.json").exists() {
+        bail!(
+            "{} holds an experiment (experiment.json); give the run another --out",
+            out.display()
+        );
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let removed = clear_run_outputs(out)?;
+    if !removed.is_empty() {
+        eprintln!(
+            "note: removed an earlier run's {} from {}",
+            removed.join(", "),
+            out.display()
         );
     }
     Ok(())
