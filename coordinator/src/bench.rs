@@ -9,7 +9,7 @@ use crate::ga::{random_population, Genome};
 use crate::pool::{ChunkTiming, IpcPool, ZenohPool};
 use crate::trial::env;
 use lander_protocol::stream::streams;
-use lander_protocol::{Evaluation, Method, StreamKey};
+use lander_protocol::{Env, Evaluation, Method, StreamKey};
 use lander_worker::cpu::thread_cpu_time;
 use serde::Serialize;
 use std::collections::HashMap;
@@ -18,32 +18,58 @@ use std::time::{Duration, Instant};
 
 /// The generations every mode evaluates: random populations keyed by the
 /// configuration's seed, so every mode and every round sees the same work.
+/// A step is one generation of each of `in_flight` trials, evaluated
+/// together as `lander experiment` steps the trials it has in flight.
 pub struct Workload {
     pub cfg: RunConfig,
     pub method: Method,
-    pub generations: Vec<(StreamKey, Vec<Genome>)>,
+    pub in_flight: usize,
+    /// Per step, one population per trial in flight.
+    pub steps: Vec<Vec<Population>>,
+}
+
+/// One trial's generation: where it flies and what.
+pub struct Population {
+    pub env: Env,
+    pub key: StreamKey,
+    pub genomes: Vec<Genome>,
 }
 
 impl Workload {
-    pub fn new(cfg: &RunConfig, method: Method, generations: u64) -> Workload {
-        let generations = (1..=generations)
+    /// `generations` steps of `in_flight` trials, numbered from the
+    /// configuration's trial on.
+    pub fn new(cfg: &RunConfig, method: Method, generations: u64, in_flight: usize) -> Workload {
+        let trials: Vec<RunConfig> = (0..in_flight as u64)
+            .map(|t| RunConfig {
+                trial: cfg.trial + t,
+                ..cfg.clone()
+            })
+            .collect();
+        let steps = (1..=generations)
             .map(|g| {
-                let key = StreamKey::new(cfg.seed, cfg.trial, 0, g);
-                (
-                    key,
-                    random_population(&cfg.ga, &mut key.rng(streams::OPERATORS)),
-                )
+                trials
+                    .iter()
+                    .map(|trial| {
+                        let key = StreamKey::new(trial.seed, trial.trial, 0, g);
+                        Population {
+                            env: env(trial, 0),
+                            key,
+                            genomes: random_population(&trial.ga, &mut key.rng(streams::OPERATORS)),
+                        }
+                    })
+                    .collect()
             })
             .collect();
         Workload {
             cfg: cfg.clone(),
             method,
-            generations,
+            in_flight,
+            steps,
         }
     }
 
     pub fn genomes(&self) -> usize {
-        self.generations.iter().map(|(_, p)| p.len()).sum()
+        self.steps.iter().flatten().map(|p| p.genomes.len()).sum()
     }
 }
 
@@ -114,27 +140,34 @@ impl Mode {
         }
     }
 
-    /// Evaluates generation `g` of the workload.
+    /// Evaluates step `g` of the workload.
     pub fn step(&mut self, work: &Workload, g: usize) -> Result<(), EvalError> {
-        let (key, population) = &work.generations[g];
-        let mut genomes = population.clone();
+        let mut genomes: Vec<Vec<Genome>> =
+            work.steps[g].iter().map(|p| p.genomes.clone()).collect();
+        let batches = work.steps[g]
+            .iter()
+            .zip(&mut genomes)
+            .map(|(p, genomes)| Batch {
+                env: p.env,
+                method: work.method,
+                guide: work.cfg.guided,
+                key: p.key,
+                max_duration: work.cfg.ga.max_duration,
+                genomes,
+            })
+            .collect();
         let cpu = thread_cpu_time();
         let started = Instant::now();
-        let evaluations = self.evaluator.as_evaluator().evaluate(Batch {
-            env: env(&work.cfg, 0),
-            method: work.method,
-            guide: work.cfg.guided,
-            key: *key,
-            max_duration: work.cfg.ga.max_duration,
-            genomes: &mut genomes,
-        })?;
+        let evaluations = self.evaluator.as_evaluator().evaluate_many(batches)?;
         let wall = started.elapsed();
         self.tally.elapsed += wall;
         self.tally.coordinator_cpu += thread_cpu_time().saturating_sub(cpu);
         self.tally.generations += 1;
-        self.tally.genomes += evaluations.len() as u64;
-        self.tally.ticks += evaluations.iter().map(|e| e.simulated_ticks).sum::<u64>();
-        hash_results(&mut self.hasher, &evaluations, &genomes);
+        for (evaluations, genomes) in evaluations.iter().zip(&genomes) {
+            self.tally.genomes += evaluations.len() as u64;
+            self.tally.ticks += evaluations.iter().map(|e| e.simulated_ticks).sum::<u64>();
+            hash_results(&mut self.hasher, evaluations, genomes);
+        }
         let timings = match &mut self.evaluator {
             ModeEvaluator::Iceoryx2(pool) => pool.take_timings(),
             ModeEvaluator::Zenoh(pool) => pool.take_timings(),

@@ -461,6 +461,49 @@ fn bench_compares_the_modes_and_their_results_agree() {
     );
 }
 
+/// `--in-flight` evaluates a generation of several trials as one step, as
+/// an experiment does: every mode agrees on it, and it is more work than one
+/// trial's generation, not the same work counted again.
+#[test]
+fn bench_steps_trials_in_flight_together_and_their_results_agree() {
+    let iox = Iox::new("bench_in_flight");
+    let bench = |in_flight: &str| {
+        json_out(&iox.lander(&[
+            "bench",
+            "--in-flight",
+            in_flight,
+            "--generations",
+            "2",
+            "--rounds",
+            "1",
+            "--population",
+            "20",
+            "--json",
+        ]))
+    };
+    let (one, three) = (bench("1"), bench("3"));
+    assert_eq!(three["in_flight"], 3);
+    assert_eq!(three["hashes_agree"], true);
+    let hashes = |r: &serde_json::Value| -> Vec<String> {
+        r["modes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|m| m["hash"].as_str().unwrap().to_string())
+            .collect()
+    };
+    assert!(hashes(&three).windows(2).all(|w| w[0] == w[1]));
+    assert_ne!(hashes(&one)[0], hashes(&three)[0]);
+    for (args, needle) in [
+        (vec!["bench", "--stress", "--in-flight", "2"], "--in-flight"),
+        (vec!["bench", "--in-flight", "0"], "--in-flight"),
+    ] {
+        let out = iox.lander(&args);
+        assert!(!out.status.success(), "{args:?} was accepted");
+        assert!(stderr(&out).contains(needle), "{args:?}: {}", stderr(&out));
+    }
+}
+
 #[test]
 fn stress_kills_workers_and_loses_nothing() {
     let iox = Iox::new("stress");

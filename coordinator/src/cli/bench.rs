@@ -37,6 +37,13 @@ pub struct BenchArgs {
     /// throughput of genomes).
     #[arg(long, value_enum, default_value = "guided")]
     method: BenchMethod,
+    /// GA trials stepped together, as `lander experiment --in-flight` steps
+    /// them: each step evaluates one generation of each as one batch. 1
+    /// measures a single trial (`lander run`), whose generations are
+    /// small; an experiment on 2 workers has 8 in flight by default.
+    #[arg(long, value_name = "N", default_value_t = 1,
+          value_parser = clap::value_parser!(u16).range(1..=1024))]
+    in_flight: u16,
     /// Rounds; each round runs every mode once, in a rotating order.
     #[arg(long, default_value_t = 5)]
     rounds: usize,
@@ -98,6 +105,7 @@ struct Ratios {
 struct Report {
     method: &'static str,
     population: usize,
+    in_flight: u16,
     generations: u64,
     rounds: usize,
     workers: usize,
@@ -202,11 +210,15 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     cfg.validate()?;
     let generations = args.generations.unwrap_or(generations);
     anyhow::ensure!(generations >= 1, "--generations must be at least 1");
-    let work = Workload::new(&cfg, method, generations);
+    let work = Workload::new(&cfg, method, generations, usize::from(args.in_flight));
     if args.stress {
         anyhow::ensure!(
             args.chunks_per_worker.is_none(),
             "--chunks-per-worker does not apply to --stress, which uses small chunks of its own"
+        );
+        anyhow::ensure!(
+            args.in_flight == 1,
+            "--in-flight does not apply to --stress, which flies one large population"
         );
         return super::stress::stress(&args_for_stress(&args), &work);
     }
@@ -222,7 +234,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     let k = modes.len();
     let mut turn = 0;
     for _ in 0..args.rounds {
-        for g in 0..work.generations.len() {
+        for g in 0..work.steps.len() {
             for i in 0..k {
                 modes[(i + turn) % k].step(&work, g)?;
             }
@@ -262,6 +274,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     let report = Report {
         method: cfg.method.name(),
         population: cfg.ga.population,
+        in_flight: args.in_flight,
         generations,
         rounds: args.rounds,
         workers: n,
@@ -286,8 +299,12 @@ fn print_table(r: &Report) {
     } else {
         r.method
     };
+    let trials = match r.in_flight {
+        1 => String::new(),
+        n => format!(" × {n} trials in flight"),
+    };
     println!(
-        "{method} GA, {} genomes × {} generations × {} rounds, {} workers, {} chunks per worker",
+        "{method} GA, {} genomes{trials} × {} generations × {} rounds, {} workers, {} chunks per worker",
         r.population, r.generations, r.rounds, r.workers, r.chunks_per_worker
     );
     println!(

@@ -67,7 +67,7 @@ pub fn stress(args: &StressArgs, work: &Workload) -> anyhow::Result<()> {
         let (stop, kills, rate) = (stop.clone(), kills.clone(), args.kill_rate);
         std::thread::spawn(move || kill_at_random(rate, &stop, &kills))
     });
-    for g in 0..work.generations.len() {
+    for g in 0..work.steps.len() {
         reference.step(work, g)?;
         churned.step(work, g)?;
     }
@@ -83,7 +83,7 @@ pub fn stress(args: &StressArgs, work: &Workload) -> anyhow::Result<()> {
     let report = StressReport {
         method: work.method.name(),
         population: work.cfg.ga.population,
-        generations: work.generations.len(),
+        generations: work.steps.len(),
         workers: args.workers,
         kill_rate: args.kill_rate,
         kills: kills.load(Ordering::Relaxed),

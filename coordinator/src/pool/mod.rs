@@ -456,6 +456,8 @@ impl<T: Transport> Pool<T> {
     ) -> Result<Vec<R>, EvalError> {
         let mut todo: VecDeque<usize> = (0..jobs.len()).collect();
         let mut done: Vec<Option<R>> = (0..jobs.len()).map(|_| None).collect();
+        // Jobs with an answer in hand, decoded or not.
+        let mut answered = vec![false; jobs.len()];
         let mut remaining = jobs.len();
         while remaining > 0 {
             if crate::stop::asked() {
@@ -463,36 +465,29 @@ impl<T: Transport> Pool<T> {
             }
             self.accept()?;
             self.reap(&mut todo)?;
-            for link in &mut self.links {
-                let (answers, refused) = link.poll();
-                if let Some(e) = refused {
-                    (self.say)(&format!(
-                        "refusing a result from worker {:016x}: {e}",
-                        link.id()
-                    ));
-                }
-                for a in answers {
-                    if let Some(t) = &mut self.timings {
-                        t.push(a.timing);
+            let fresh = self.collect(&mut answered);
+            self.drop_links(&mut todo, |l| l.is_broken(), "disconnected");
+            // A worker that ran dry gets more before anything is decoded:
+            // decoding can wait, an idle worker should not.
+            todo.retain(|&j| !answered[j]);
+            self.rebalance(jobs, &mut todo);
+            self.dispatch(jobs, &mut todo);
+            let mut refused = false;
+            for (worker, a) in fresh {
+                match decode(a.job, &a.body) {
+                    Ok(value) => {
+                        finished(a.job, &value);
+                        done[a.job] = Some(value);
+                        remaining -= 1;
                     }
-                    // A job run twice keeps its first answer.
-                    if done[a.job].is_some() {
-                        continue;
-                    }
-                    match decode(a.job, &a.body) {
-                        Ok(value) => {
-                            finished(a.job, &value);
-                            done[a.job] = Some(value);
-                            remaining -= 1;
-                        }
-                        Err(e) => {
-                            (self.say)(&format!(
-                                "refusing a result from worker {:016x}: {e}",
-                                link.id()
-                            ));
+                    Err(e) => {
+                        (self.say)(&format!("refusing a result from worker {worker:016x}: {e}"));
+                        for link in self.links.iter_mut().filter(|l| l.id() == worker) {
                             link.break_off();
-                            todo.push_front(a.job);
                         }
+                        answered[a.job] = false;
+                        todo.push_front(a.job);
+                        refused = true;
                     }
                 }
             }
@@ -500,19 +495,43 @@ impl<T: Transport> Pool<T> {
             if remaining == 0 {
                 break;
             }
-            todo.retain(|&j| done[j].is_none());
-            self.rebalance(jobs, &mut todo);
-            self.dispatch(jobs, &mut todo);
-            self.drop_links(&mut todo, |l| l.is_broken(), "disconnected");
             if self.links.is_empty() && self.children.is_empty() && self.opts.spawn > 0 {
                 return Err(EvalError::NoWorkers {
                     respawns: self.opts.max_respawns,
                 });
             }
             self.tell_waiting();
-            self.sleep()?;
+            // A refused job goes out again at once, not after a sleep.
+            if !refused {
+                self.sleep()?;
+            }
         }
         Ok(done.into_iter().flatten().collect())
+    }
+
+    /// The answers that arrived, each with the worker that gave it, to jobs
+    /// not answered before (a job run twice keeps its first answer);
+    /// checked, not yet decoded.
+    fn collect(&mut self, answered: &mut [bool]) -> Vec<(u64, Answer)> {
+        let mut fresh = Vec::new();
+        for link in &mut self.links {
+            let (answers, refused) = link.poll();
+            if let Some(e) = refused {
+                (self.say)(&format!(
+                    "refusing a result from worker {:016x}: {e}",
+                    link.id()
+                ));
+            }
+            for a in answers {
+                if let Some(t) = &mut self.timings {
+                    t.push(a.timing);
+                }
+                if !std::mem::replace(&mut answered[a.job], true) {
+                    fresh.push((link.id(), a));
+                }
+            }
+        }
+        fresh
     }
 }
 
@@ -958,6 +977,150 @@ mod tests {
             assert_eq!(flying, (vec![vec![], vec![0], vec![1]], vec![]));
             let busy = rebalanced(vec![vec![5], vec![0, 1, 2]], &[]);
             assert_eq!(busy, (vec![vec![5], vec![0, 1, 2]], vec![]));
+        }
+    }
+
+    /// `run_jobs` over links that answer at once, one of them with
+    /// answers that fail to decode.
+    mod refusals {
+        use super::super::*;
+        use std::sync::{Arc, Mutex};
+
+        /// Answers every job it is sent with `body` on the next poll.
+        struct Echo {
+            id: u64,
+            body: Vec<u8>,
+            held: Vec<usize>,
+            broken: bool,
+        }
+
+        impl WorkerLink for Echo {
+            fn id(&self) -> u64 {
+                self.id
+            }
+            fn pid(&self) -> u32 {
+                0
+            }
+            fn has_room(&self) -> bool {
+                self.held.len() < DEPTH && !self.broken
+            }
+            fn is_broken(&self) -> bool {
+                self.broken
+            }
+            fn deadline(&self) -> Option<Instant> {
+                None
+            }
+            fn abandon(&mut self) -> Vec<usize> {
+                std::mem::take(&mut self.held)
+            }
+            fn in_flight(&self) -> usize {
+                self.held.len()
+            }
+            fn send(
+                &mut self,
+                _: JobHeader,
+                _: &[WireGene],
+                job: usize,
+                _: Option<Duration>,
+            ) -> Result<(), String> {
+                self.held.push(job);
+                Ok(())
+            }
+            fn poll(&mut self) -> (Vec<Answer>, Option<String>) {
+                let answers = self
+                    .held
+                    .drain(..)
+                    .map(|job| Answer {
+                        job,
+                        body: self.body.clone(),
+                        timing: ChunkTiming {
+                            worker: self.id,
+                            sent_ns: 0,
+                            read_ns: 0,
+                            started_ns: 0,
+                            finished_ns: 0,
+                        },
+                    })
+                    .collect();
+                (answers, None)
+            }
+            fn break_off(&mut self) {
+                self.broken = true;
+            }
+            fn shut_down(&self) {}
+        }
+
+        struct Echoes;
+
+        impl Transport for Echoes {
+            type Link = Echo;
+            fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError> {
+                Ok(Vec::new())
+            }
+            fn connect(&mut self, _: &Arrival) -> Result<Echo, String> {
+                Err("no".into())
+            }
+            fn departures(&mut self) -> Vec<u64> {
+                Vec::new()
+            }
+            fn sleep(&mut self, _: Duration) -> Result<(), EvalError> {
+                Ok(())
+            }
+            fn worker_args(&self) -> Vec<String> {
+                Vec::new()
+            }
+            fn close(&mut self) {}
+        }
+
+        #[test]
+        fn a_refused_answer_costs_its_worker_and_the_job_runs_elsewhere() {
+            let said = Arc::new(Mutex::new(Vec::<String>::new()));
+            let log = said.clone();
+            let opts = PoolOptions {
+                run_id: "t".into(),
+                spawn: 0,
+                worker_exe: PathBuf::new(),
+                chunks_per_worker: 1,
+                deadline: Duration::from_secs(1),
+                max_respawns: 0,
+                pin: false,
+            };
+            let say = Box::new(move |m: &str| log.lock().unwrap().push(m.to_string()));
+            let mut pool = Pool::with_transport(Echoes, opts, say).unwrap();
+            pool.links = [(7, b"garbage"), (8, b"fine!!!")]
+                .into_iter()
+                .map(|(id, body)| Echo {
+                    id,
+                    body: body.to_vec(),
+                    held: Vec::new(),
+                    broken: false,
+                })
+                .collect();
+            let jobs: Vec<Job> = (0..6)
+                .map(|_| Job {
+                    header: JobHeader::default(),
+                    genes: Vec::new(),
+                    timed: true,
+                })
+                .collect();
+            let decode = |i: usize, body: &[u8]| match body {
+                b"fine!!!" => Ok(i * 10),
+                _ => Err("does not decode".to_string()),
+            };
+            let mut seen = Vec::new();
+            let results = pool.run_jobs(&jobs, decode, |i, _| seen.push(i)).unwrap();
+            assert_eq!(results, [0, 10, 20, 30, 40, 50]);
+            seen.sort_unstable();
+            assert_eq!(seen, [0, 1, 2, 3, 4, 5], "each job finished once");
+            let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
+            assert_eq!(ids, [8], "the worker that answered badly is dropped");
+            assert!(pool.dropped.contains(&7));
+            let said = said.lock().unwrap();
+            assert!(
+                said.iter()
+                    .any(|m| m.contains("0000000000000007") && m.contains("does not decode")),
+                "{said:?}"
+            );
         }
     }
 
