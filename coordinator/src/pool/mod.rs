@@ -823,13 +823,28 @@ mod tests {
         assert_eq!(one, [40, 30, 20, 10]);
     }
 
-    /// `dispatch` alone, over links that only record what they are sent.
-    mod dispatch {
+    /// A pool over made-up links: no processes, no transport.
+    mod fake {
         use super::super::*;
 
-        struct Recorder {
-            id: u64,
-            jobs: Vec<usize>,
+        /// Records what it is sent; with an `answer`, answers every job
+        /// with it at the next poll.
+        pub struct Recorder {
+            pub id: u64,
+            pub jobs: Vec<usize>,
+            pub answer: Option<Vec<u8>>,
+            pub broken: bool,
+        }
+
+        impl Recorder {
+            pub fn holding(id: u64, jobs: Vec<usize>) -> Recorder {
+                Recorder {
+                    id,
+                    jobs,
+                    answer: None,
+                    broken: false,
+                }
+            }
         }
 
         impl WorkerLink for Recorder {
@@ -840,10 +855,10 @@ mod tests {
                 0
             }
             fn has_room(&self) -> bool {
-                self.jobs.len() < DEPTH
+                self.jobs.len() < DEPTH && !self.broken
             }
             fn is_broken(&self) -> bool {
-                false
+                self.broken
             }
             fn deadline(&self) -> Option<Instant> {
                 None
@@ -868,13 +883,34 @@ mod tests {
                 Ok(())
             }
             fn poll(&mut self) -> (Vec<Answer>, Option<String>) {
-                (Vec::new(), None)
+                let Some(body) = &self.answer else {
+                    return (Vec::new(), None);
+                };
+                let timing = ChunkTiming {
+                    worker: self.id,
+                    sent_ns: 0,
+                    read_ns: 0,
+                    started_ns: 0,
+                    finished_ns: 0,
+                };
+                let answers = self
+                    .jobs
+                    .drain(..)
+                    .map(|job| Answer {
+                        job,
+                        body: body.clone(),
+                        timing,
+                    })
+                    .collect();
+                (answers, None)
             }
-            fn break_off(&mut self) {}
+            fn break_off(&mut self) {
+                self.broken = true;
+            }
             fn shut_down(&self) {}
         }
 
-        struct Nowhere;
+        pub struct Nowhere;
 
         impl Transport for Nowhere {
             type Link = Recorder;
@@ -896,7 +932,7 @@ mod tests {
             fn close(&mut self) {}
         }
 
-        fn pool(links: Vec<Vec<usize>>) -> Pool<Nowhere> {
+        pub fn pool(links: Vec<Recorder>, say: Say) -> Pool<Nowhere> {
             let opts = PoolOptions {
                 run_id: "t".into(),
                 spawn: 0,
@@ -906,15 +942,12 @@ mod tests {
                 max_respawns: 0,
                 pin: false,
             };
-            let mut pool = Pool::with_transport(Nowhere, opts, Box::new(|_| ())).unwrap();
-            pool.links = (0..)
-                .zip(links)
-                .map(|(id, jobs)| Recorder { id, jobs })
-                .collect();
+            let mut pool = Pool::with_transport(Nowhere, opts, say).unwrap();
+            pool.links = links;
             pool
         }
 
-        fn no_jobs(n: usize) -> Vec<Job> {
+        pub fn no_jobs(n: usize) -> Vec<Job> {
             (0..n)
                 .map(|_| Job {
                     header: JobHeader::default(),
@@ -922,6 +955,19 @@ mod tests {
                     timed: true,
                 })
                 .collect()
+        }
+    }
+
+    /// `dispatch` alone, over links that only record what they are sent.
+    mod dispatch {
+        use super::super::*;
+        use super::fake::{no_jobs, Nowhere, Recorder};
+
+        fn pool(links: Vec<Vec<usize>>) -> Pool<Nowhere> {
+            let links = (0..)
+                .zip(links)
+                .map(|(id, jobs)| Recorder::holding(id, jobs));
+            super::fake::pool(links.collect(), Box::new(|_| ()))
         }
 
         /// Which jobs each of `workers` links is sent, from `n` queued.
@@ -983,132 +1029,30 @@ mod tests {
     /// `run_jobs` over links that answer at once, one of them with
     /// answers that fail to decode.
     mod refusals {
-        use super::super::*;
+        use super::fake::{no_jobs, pool, Recorder};
         use std::sync::{Arc, Mutex};
-
-        /// Answers every job it is sent with `body` on the next poll.
-        struct Echo {
-            id: u64,
-            body: Vec<u8>,
-            held: Vec<usize>,
-            broken: bool,
-        }
-
-        impl WorkerLink for Echo {
-            fn id(&self) -> u64 {
-                self.id
-            }
-            fn pid(&self) -> u32 {
-                0
-            }
-            fn has_room(&self) -> bool {
-                self.held.len() < DEPTH && !self.broken
-            }
-            fn is_broken(&self) -> bool {
-                self.broken
-            }
-            fn deadline(&self) -> Option<Instant> {
-                None
-            }
-            fn abandon(&mut self) -> Vec<usize> {
-                std::mem::take(&mut self.held)
-            }
-            fn in_flight(&self) -> usize {
-                self.held.len()
-            }
-            fn send(
-                &mut self,
-                _: JobHeader,
-                _: &[WireGene],
-                job: usize,
-                _: Option<Duration>,
-            ) -> Result<(), String> {
-                self.held.push(job);
-                Ok(())
-            }
-            fn poll(&mut self) -> (Vec<Answer>, Option<String>) {
-                let answers = self
-                    .held
-                    .drain(..)
-                    .map(|job| Answer {
-                        job,
-                        body: self.body.clone(),
-                        timing: ChunkTiming {
-                            worker: self.id,
-                            sent_ns: 0,
-                            read_ns: 0,
-                            started_ns: 0,
-                            finished_ns: 0,
-                        },
-                    })
-                    .collect();
-                (answers, None)
-            }
-            fn break_off(&mut self) {
-                self.broken = true;
-            }
-            fn shut_down(&self) {}
-        }
-
-        struct Echoes;
-
-        impl Transport for Echoes {
-            type Link = Echo;
-            fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError> {
-                Ok(Vec::new())
-            }
-            fn connect(&mut self, _: &Arrival) -> Result<Echo, String> {
-                Err("no".into())
-            }
-            fn departures(&mut self) -> Vec<u64> {
-                Vec::new()
-            }
-            fn sleep(&mut self, _: Duration) -> Result<(), EvalError> {
-                Ok(())
-            }
-            fn worker_args(&self) -> Vec<String> {
-                Vec::new()
-            }
-            fn close(&mut self) {}
-        }
 
         #[test]
         fn a_refused_answer_costs_its_worker_and_the_job_runs_elsewhere() {
             let said = Arc::new(Mutex::new(Vec::<String>::new()));
             let log = said.clone();
-            let opts = PoolOptions {
-                run_id: "t".into(),
-                spawn: 0,
-                worker_exe: PathBuf::new(),
-                chunks_per_worker: 1,
-                deadline: Duration::from_secs(1),
-                max_respawns: 0,
-                pin: false,
-            };
-            let say = Box::new(move |m: &str| log.lock().unwrap().push(m.to_string()));
-            let mut pool = Pool::with_transport(Echoes, opts, say).unwrap();
-            pool.links = [(7, b"garbage"), (8, b"fine!!!")]
+            let links = [(7, b"garbage"), (8, b"fine!!!")]
                 .into_iter()
-                .map(|(id, body)| Echo {
-                    id,
-                    body: body.to_vec(),
-                    held: Vec::new(),
-                    broken: false,
+                .map(|(id, body)| Recorder {
+                    answer: Some(body.to_vec()),
+                    ..Recorder::holding(id, Vec::new())
                 })
                 .collect();
-            let jobs: Vec<Job> = (0..6)
-                .map(|_| Job {
-                    header: JobHeader::default(),
-                    genes: Vec::new(),
-                    timed: true,
-                })
-                .collect();
+            let say = Box::new(move |m: &str| log.lock().unwrap().push(m.to_string()));
+            let mut pool = pool(links, say);
             let decode = |i: usize, body: &[u8]| match body {
                 b"fine!!!" => Ok(i * 10),
                 _ => Err("does not decode".to_string()),
             };
             let mut seen = Vec::new();
-            let results = pool.run_jobs(&jobs, decode, |i, _| seen.push(i)).unwrap();
+            let results = pool
+                .run_jobs(&no_jobs(6), decode, |i, _| seen.push(i))
+                .unwrap();
             assert_eq!(results, [0, 10, 20, 30, 40, 50]);
             seen.sort_unstable();
             assert_eq!(seen, [0, 1, 2, 3, 4, 5], "each job finished once");
