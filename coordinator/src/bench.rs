@@ -218,6 +218,8 @@ fn hash_results(h: &mut impl Hasher, evaluations: &[Evaluation], genomes: &[Geno
 pub struct ModeReport {
     pub name: String,
     pub workers: usize,
+    /// Genomes evaluated, in every round.
+    pub genomes: u64,
     pub genomes_per_s: f64,
     pub ticks_per_s: f64,
     pub rtt_p50_us: Option<f64>,
@@ -245,6 +247,7 @@ impl Mode {
         ModeReport {
             name: self.name.clone(),
             workers,
+            genomes: t.genomes,
             genomes_per_s: t.genomes as f64 / secs,
             ticks_per_s: t.ticks as f64 / secs,
             rtt_p50_us: percentile(&mut rtt, 0.50).map(micros),

@@ -134,6 +134,23 @@ impl RunConfig {
             (1..=1_000_000).contains(&w.max_ticks),
             "must be 1 to 1,000,000",
         )?;
+        // Upside down (rot = π) the hull's top, its largest model y, is
+        // lowest; a lander starting with it under the ground would touch
+        // down on the first tick, to numbers that mean nothing.
+        let top = lander_worker::HULL
+            .iter()
+            .map(|p| p.1)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let least = w.ground_y + w.start_drop + w.hull_scale * top;
+        check(
+            "world.height",
+            w.height > least,
+            &format!(
+                "must be more than {least:?}, so that the lander, starting world.start_drop \
+                 below the top, is above world.ground_y (got {:?})",
+                w.height
+            ),
+        )?;
 
         let s = &self.scoring;
         // Bounded so that fitness and R stay finite for any flight.

@@ -92,30 +92,79 @@ impl<'a> BestRecord<'a> {
     }
 }
 
-/// Every file `lander run` writes into its folder, for any method: the
-/// GA's log and best lander, Q(λ)'s episodes and summary.
-pub const RUN_OUTPUTS: [&str; 4] = [
-    "generations.jsonl",
-    "best.json",
-    "episodes.jsonl",
-    "summary.json",
+/// Every file `lander run` writes into its folder, for any method (the
+/// GA's log and best lander, Q(λ)'s episodes and summary), and keys its
+/// first JSON object (the whole file, or a log's first line) always has.
+const RUN_OUTPUTS: [(&str, &[&str]); 4] = [
+    ("generations.jsonl", &["index", "best", "mean"]),
+    ("best.json", &["method", "seed", "trial", "genome"]),
+    ("episodes.jsonl", &["episode", "return", "epsilon"]),
+    ("summary.json", &["method", "seed", "trial", "x0", "pad_x"]),
 ];
 
-/// Removes the [`RUN_OUTPUTS`] an earlier run left in `dir` and returns
-/// their names. A run rewrites only some of them, and an interrupted run
-/// none, so without this a folder could pair one run's log with another
-/// run's best lander, and a replay would draw the stale one.
-pub fn clear_run_outputs(dir: &Path) -> Result<Vec<&'static str>, WriteError> {
-    let mut removed = Vec::new();
-    for name in RUN_OUTPUTS {
-        let path = dir.join(name);
-        match std::fs::remove_file(&path) {
-            Ok(()) => removed.push(name),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => return Err(at(&path)(e)),
-        }
+/// Why a folder cannot be readied for a run.
+#[derive(Debug, thiserror::Error)]
+pub enum ClearError {
+    #[error(
+        "{0} is not a file a lander run wrote, and a run would overwrite it; \
+         give the run another --out"
+    )]
+    NotARunsFile(PathBuf),
+    #[error(transparent)]
+    Write(#[from] WriteError),
+}
+
+/// Removes the files an earlier run left in `dir` and returns their
+/// names. A run rewrites only some of them, and an interrupted run none, so
+/// without this a folder could pair one run's log with another run's best
+/// lander, and a replay would draw the stale one. A file of a run's name
+/// that no run wrote (a `summary.json` of something else in `--out .`)
+/// is refused before anything is removed.
+pub fn clear_run_outputs(dir: &Path) -> Result<Vec<&'static str>, ClearError> {
+    let present: Vec<(&'static str, PathBuf)> = RUN_OUTPUTS
+        .iter()
+        .map(|&(name, keys)| (name, dir.join(name), keys))
+        .filter(|(_, path, _)| path.exists())
+        .map(|(name, path, keys)| {
+            if written_by_a_run(&path, keys) {
+                Ok((name, path))
+            } else {
+                Err(ClearError::NotARunsFile(path))
+            }
+        })
+        .collect::<Result<_, _>>()?;
+    for (_, path) in &present {
+        std::fs::remove_file(path).map_err(at(path))?;
     }
-    Ok(removed)
+    Ok(present.into_iter().map(|(name, _)| name).collect())
+}
+
+/// True if the file at `path` is empty, or its first JSON object (the
+/// whole file, or a log's first line) has every one of `keys`.
+fn written_by_a_run(path: &Path, keys: &[&str]) -> bool {
+    use std::io::{BufRead, BufReader, Read};
+    // Far more than any run's file holds at its start.
+    const LIMIT: u64 = 1 << 20;
+    let Ok(file) = File::open(path) else {
+        return false;
+    };
+    let mut first = String::new();
+    let mut reader = BufReader::new(file.take(LIMIT));
+    let read = if path.extension().is_some_and(|e| e == "jsonl") {
+        reader.read_line(&mut first)
+    } else {
+        reader.read_to_string(&mut first)
+    };
+    if read.is_err() {
+        return false;
+    }
+    if first.trim().is_empty() {
+        return true;
+    }
+    match serde_json::from_str::<serde_json::Value>(&first) {
+        Ok(serde_json::Value::Object(object)) => keys.iter().all(|k| object.contains_key(*k)),
+        _ => false,
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -173,16 +222,37 @@ mod tests {
 
     #[test]
     fn clearing_removes_only_a_runs_own_files() {
-        let dir = std::env::temp_dir().join(format!("lander-clear-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        for name in ["best.json", "summary.json", "notes.txt"] {
-            std::fs::write(dir.join(name), "x").unwrap();
-        }
-        let removed = clear_run_outputs(&dir).unwrap();
-        assert_eq!(removed, ["best.json", "summary.json"]);
+        let dir = tempfile::tempdir().unwrap();
+        let dir = dir.path();
+        let best = r#"{"method": "ga", "seed": 1, "trial": 1, "genome": "1:2"}"#;
+        let log = "{\"index\":1,\"best\":2.0,\"mean\":1.0}\n{\"index\":2}\n";
+        std::fs::write(dir.join("best.json"), best).unwrap();
+        std::fs::write(dir.join("generations.jsonl"), log).unwrap();
+        std::fs::write(dir.join("episodes.jsonl"), "").unwrap();
+        std::fs::write(dir.join("notes.txt"), "x").unwrap();
+        let removed = clear_run_outputs(dir).unwrap();
+        assert_eq!(
+            removed,
+            ["generations.jsonl", "best.json", "episodes.jsonl"]
+        );
         assert!(!dir.join("best.json").exists());
         assert!(dir.join("notes.txt").exists(), "not a run's file");
-        assert!(clear_run_outputs(&dir).unwrap().is_empty());
-        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(clear_run_outputs(dir).unwrap().is_empty());
+    }
+
+    #[test]
+    fn a_file_of_a_runs_name_that_no_run_wrote_is_refused_and_nothing_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        let dir = dir.path();
+        let best = r#"{"method": "ga", "seed": 1, "trial": 1, "genome": "1:2"}"#;
+        std::fs::write(dir.join("best.json"), best).unwrap();
+        for stranger in ["{\"total\": 3}", "not json", "[1, 2]"] {
+            std::fs::write(dir.join("summary.json"), stranger).unwrap();
+            match clear_run_outputs(dir) {
+                Err(ClearError::NotARunsFile(path)) => assert!(path.ends_with("summary.json")),
+                other => panic!("{stranger:?} was taken for a run's: {other:?}"),
+            }
+            assert!(dir.join("best.json").exists(), "removed before refusing");
+        }
     }
 }

@@ -494,6 +494,12 @@ fn bench_steps_trials_in_flight_together_and_their_results_agree() {
     };
     assert!(hashes(&three).windows(2).all(|w| w[0] == w[1]));
     assert_ne!(hashes(&one)[0], hashes(&three)[0]);
+    // 20 genomes × 2 generations × 1 round, per trial in flight.
+    for (report, trials) in [(&one, 1), (&three, 3)] {
+        for m in report["modes"].as_array().unwrap() {
+            assert_eq!(m["genomes"], 40 * trials, "{m}");
+        }
+    }
     for (args, needle) in [
         (vec!["bench", "--stress", "--in-flight", "2"], "--in-flight"),
         (vec!["bench", "--in-flight", "0"], "--in-flight"),

@@ -114,6 +114,7 @@ fn bad_configuration_is_refused_naming_the_field() {
         ("[ga]\ncrossover_rate = 1.5\n", "ga.crossover_rate"),
         ("[ga]\nmax_duration = 0\n", "ga.max_duration"),
         ("[guided]\nepsilon = nan\n", "guided.epsilon"),
+        ("[world]\nheight = 100\n", "world.height must be more than"),
         ("[ga]\npopsize = 10\n", "unknown field `popsize`"),
         ("method = \"annealing\"\n", "unknown variant `annealing`"),
         ("[ga\n", "bad.toml"),
@@ -246,11 +247,11 @@ fn qlearning_swaps_in_and_repeats_exactly() {
 #[test]
 fn a_start_no_run_could_draw_is_refused_naming_the_flag() {
     for (x0, pad_x, height, needle) in [
-        ("-5", "100", "300", "--x0"),
-        ("400", "100", "300", "--x0"),
-        ("5", "10", "300", "--pad-x"),
-        ("5", "350", "300", "--pad-x"),
-        ("5", "100", "40", "--height"),
+        ("-5", "100", "300", "--x0 must be in [0, 400.0)"),
+        ("400", "100", "300", "--x0 must be in [0, 400.0)"),
+        ("5", "10", "300", "--pad-x must be in [50.0, 350.0)"),
+        ("5", "350", "300", "--pad-x must be in [50.0, 350.0)"),
+        ("5", "100", "40", "--height must be more than"),
     ] {
         let out = lander(&[
             "fly", "--genome", "1:3", "--x0", x0, "--pad-x", pad_x, "--height", height,
@@ -298,6 +299,7 @@ fn replaying_a_run_flies_it_in_the_world_the_run_recorded() {
     let (x0, pad_x) = (summary["x0"].to_string(), summary["pad_x"].to_string());
     let default_world = lander(&["fly", "--genome", genome, "--x0", &x0, "--pad-x", &pad_x]);
     assert!(!default_world.status.success());
+    assert!(stderr(&default_world).contains("--genome"));
 
     let svg = dir.path().join("best.svg");
     let (run, svg) = (run.to_str().unwrap(), svg.to_str().unwrap());
@@ -310,6 +312,19 @@ fn replaying_a_run_flies_it_in_the_world_the_run_recorded() {
         stderr(&both).contains("without --config"),
         "{}",
         stderr(&both)
+    );
+
+    // A best.json whose start no run could draw is refused, naming it.
+    let mut damaged = best.clone();
+    damaged["x0"] = serde_json::json!(-5.0);
+    let best_path = std::path::Path::new(run).join("best.json");
+    fs::write(&best_path, damaged.to_string()).unwrap();
+    let refused = lander(&["replay", "--run", run, "--out", svg]);
+    assert!(!refused.status.success());
+    assert!(
+        stderr(&refused).contains("best.json: x0 must be in"),
+        "{}",
+        stderr(&refused)
     );
 }
 
@@ -337,6 +352,23 @@ fn a_run_replaces_an_earlier_runs_outputs_and_leaves_an_experiment_alone() {
         assert!(!dir.path().join(gone).exists(), "{gone} outlived its run");
     }
     assert!(dir.path().join("episodes.jsonl").exists());
+
+    // A file of a run's name that no run wrote is neither removed nor
+    // overwritten.
+    let theirs = tempfile::tempdir().unwrap();
+    fs::write(theirs.path().join("summary.json"), "{\"total\": 3}").unwrap();
+    let out = theirs.path().to_str().unwrap();
+    let refused = lander(&["run", "--max-generations", "1", "--out", out]);
+    assert!(!refused.status.success());
+    assert!(
+        stderr(&refused).contains("summary.json is not a file a lander run wrote"),
+        "{}",
+        stderr(&refused)
+    );
+    assert_eq!(
+        fs::read_to_string(theirs.path().join("summary.json")).unwrap(),
+        "{\"total\": 3}"
+    );
 
     let experiment = tempfile::tempdir().unwrap();
     fs::write(experiment.path().join("experiment.json"), "{}").unwrap();

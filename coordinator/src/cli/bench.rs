@@ -210,7 +210,6 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     cfg.validate()?;
     let generations = args.generations.unwrap_or(generations);
     anyhow::ensure!(generations >= 1, "--generations must be at least 1");
-    let work = Workload::new(&cfg, method, generations, usize::from(args.in_flight));
     if args.stress {
         anyhow::ensure!(
             args.chunks_per_worker.is_none(),
@@ -220,6 +219,15 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             args.in_flight == 1,
             "--in-flight does not apply to --stress, which flies one large population"
         );
+    }
+    anyhow::ensure!(
+        cfg.trial.checked_add(u64::from(args.in_flight)).is_some(),
+        "--in-flight {} trials from trial {} would number past the largest trial",
+        args.in_flight,
+        cfg.trial
+    );
+    let work = Workload::new(&cfg, method, generations, usize::from(args.in_flight));
+    if args.stress {
         return super::stress::stress(&args_for_stress(&args), &work);
     }
     let mut modes = modes(&args)?;

@@ -7,7 +7,7 @@ use clap::Args;
 use lander_coordinator::config::{ConfigError, RunConfig};
 use lander_protocol::stream::streams;
 use lander_protocol::{format_genome, parse_genome, Env, Gene, StreamKey};
-use lander_worker::{fly_traced, guide as guide_pass, HULL};
+use lander_worker::{fly_traced, guide as guide_pass};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -26,8 +26,8 @@ pub struct FlightArgs {
     /// World width W in pixels [default: 400, or the --config file's].
     #[arg(long, allow_negative_numbers = true)]
     width: Option<f64>,
-    /// World height H in pixels; the lander starts at H − 50 [default:
-    /// 300, or the --config file's].
+    /// World height H in pixels; the lander starts world.start_drop (50)
+    /// below it [default: 300, or the --config file's].
     #[arg(long, allow_negative_numbers = true)]
     height: Option<f64>,
     /// A TOML run configuration for the world's other constants.
@@ -47,12 +47,7 @@ impl FlightArgs {
             x0: self.x0,
             pad_x: self.pad_x,
         };
-        let height = if self.height.is_some() {
-            "--height"
-        } else {
-            "world.height"
-        };
-        check_start(&env, &StartNames::flags(height))?;
+        check_start(&env, &StartNames::FLAGS)?;
         let genes = parse_genome(&self.genome, cfg.ga.max_duration).context("--genome")?;
         Ok((env, cfg, genes))
     }
@@ -97,25 +92,19 @@ pub(super) fn load(path: Option<&Path>) -> Result<RunConfig, ConfigError> {
 pub(super) struct StartNames<'a> {
     pub x0: &'a str,
     pub pad_x: &'a str,
-    pub height: &'a str,
 }
 
-impl<'a> StartNames<'a> {
-    /// The flags, with `height` the flag or field the world's height came from.
-    pub fn flags(height: &'a str) -> StartNames<'a> {
-        StartNames {
-            x0: "--x0",
-            pad_x: "--pad-x",
-            height,
-        }
-    }
+impl StartNames<'static> {
+    pub const FLAGS: StartNames<'static> = StartNames {
+        x0: "--x0",
+        pad_x: "--pad-x",
+    };
 }
 
-/// Refuses a start SPEC §1 would never draw: `x0` outside `[0, W)`,
-/// `pad_x` outside `[pad_margin, W − pad_margin)`, or a world too low for
-/// the upside-down lander to start with its hull above the ground. Such a
-/// flight still flies, to numbers that mean nothing: a fitness of −1e308
-/// for a pad 1e308 px away, a touchdown on the first tick.
+/// Refuses a start SPEC §1 would never draw: `x0` outside `[0, W)` or
+/// `pad_x` outside `[pad_margin, W − pad_margin)` (a world too low to start
+/// in is refused by `RunConfig::validate`). Such a flight still flies, to
+/// numbers that mean nothing: a fitness of −1e308 for a pad 1e308 px away.
 pub(super) fn check_start(env: &Env, names: &StartNames) -> anyhow::Result<()> {
     let w = &env.world;
     ensure!(
@@ -131,16 +120,6 @@ pub(super) fn check_start(env: &Env, names: &StartNames) -> anyhow::Result<()> {
         "{} must be in [{low:?}, {high:?}), world.pad_margin from either edge (got {:?})",
         names.pad_x,
         env.pad_x
-    );
-    // Upside down (rot = π) the hull's top, its largest model y, is lowest.
-    let top = HULL.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
-    let least = w.ground_y + w.start_drop + w.hull_scale * top;
-    ensure!(
-        w.height > least,
-        "{} must be more than {least:?} so that the lander, starting \
-         world.start_drop below the top, is above world.ground_y (got {:?})",
-        names.height,
-        w.height
     );
     Ok(())
 }

@@ -107,7 +107,7 @@ fn from_genome(args: &ReplayArgs) -> anyhow::Result<Flight> {
         x0,
         pad_x,
     };
-    check_start(&env, &StartNames::flags("world.height"))?;
+    check_start(&env, &StartNames::FLAGS)?;
     let genes = parse_genome(genome, cfg.ga.max_duration).context("--genome")?;
     let (mut flight, outcome) = trace(&env, &genes, String::new());
     flight.title = format!("x0 {x0}, pad {pad_x}: {}", ending(outcome.safe));
@@ -150,6 +150,12 @@ fn from_folder(dir: &Path, args: &ReplayArgs) -> anyhow::Result<Flight> {
             dir.display()
         );
     }
+    if dir.join("generations.jsonl").exists() {
+        bail!(
+            "{} holds a run that did not finish (generations.jsonl, but no best.json)",
+            dir.display()
+        );
+    }
     bail!(
         "{} holds neither a run (best.json) nor an experiment (experiment.json)",
         dir.display()
@@ -171,6 +177,11 @@ fn from_best(path: &Path, config: Option<&Path>) -> anyhow::Result<Flight> {
         x0: b.x0,
         pad_x: b.pad_x,
     };
+    let names = StartNames {
+        x0: &format!("{}: x0", path.display()),
+        pad_x: &format!("{}: pad_x", path.display()),
+    };
+    check_start(&env, &names)?;
     let (mut flight, outcome) = trace(&env, &genes, String::new());
     flight.title = format!(
         "{}, trial {}: {}",
