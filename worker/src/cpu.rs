@@ -33,25 +33,17 @@ pub fn allowed_cpus() -> Vec<usize> {
 /// Runs the calling thread, and the threads it starts from now on, on
 /// `cpu` only. Call it first thing in `main` to pin the whole process.
 pub fn pin_to(cpu: usize) -> io::Result<()> {
-    run_on(&[cpu])
-}
-
-/// Runs the calling thread, and the threads it starts from now on, on
-/// `cpus` only.
-pub fn run_on(cpus: &[usize]) -> io::Result<()> {
-    if let Some(cpu) = cpus.iter().find(|&&c| c >= libc::CPU_SETSIZE as usize) {
+    if cpu >= libc::CPU_SETSIZE as usize {
         return Err(io::Error::new(
             io::ErrorKind::InvalidInput,
             format!("CPU {cpu} is beyond the largest CPU number this system supports"),
         ));
     }
-    // SAFETY: as above; every cpu is below CPU_SETSIZE, so CPU_SET stays
-    // inside the set.
+    // SAFETY: as above; `cpu` is below CPU_SETSIZE, so CPU_SET stays inside
+    // the set.
     unsafe {
         let mut set: libc::cpu_set_t = std::mem::zeroed();
-        for &cpu in cpus {
-            libc::CPU_SET(cpu, &mut set);
-        }
+        libc::CPU_SET(cpu, &mut set);
         if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
             return Err(io::Error::last_os_error());
         }

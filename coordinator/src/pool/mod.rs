@@ -208,10 +208,6 @@ pub struct Pool<T: Transport> {
     /// Kept only when asked for, so long runs do not accumulate them.
     timings: Option<Vec<ChunkTiming>>,
     say: Say,
-    /// The CPUs the coordinator's thread may run on, and the one it waits
-    /// on now, if any (`wait_beside_the_last`).
-    home: Vec<usize>,
-    beside: Option<usize>,
 }
 
 impl IpcPool {
@@ -243,8 +239,6 @@ impl<T: Transport> Pool<T> {
             timings: None,
             say,
             opts,
-            home: lander_worker::cpu::allowed_cpus(),
-            beside: None,
         };
         for _ in 0..pool.opts.spawn {
             pool.children.spawn()?;
@@ -376,37 +370,8 @@ impl<T: Transport> Pool<T> {
         }
     }
 
-    /// Waits beside the last busy worker: when only workers pinned to one
-    /// CPU still compute, the coordinator waits on that CPU, so the answer
-    /// that ends the step wakes it there, just as that worker goes to sleep,
-    /// rather than on an idle CPU, whose waking costs more than the whole
-    /// hand-over on a virtual machine. Anywhere otherwise.
-    fn wait_beside_the_last(&mut self) {
-        if std::env::var_os("LANDER_NOBESIDE").is_some() {
-            return;
-        }
-        let mut busy = self
-            .links
-            .iter()
-            .filter(|l| l.in_flight() > 0)
-            .map(|l| self.children.cpu_of(l.pid()));
-        let first = busy.next().flatten();
-        let beside = first.filter(|&cpu| busy.all(|c| c == Some(cpu)));
-        if beside != self.beside {
-            let placed = match beside {
-                Some(cpu) => lander_worker::cpu::pin_to(cpu),
-                None => lander_worker::cpu::run_on(&self.home),
-            };
-            // Placement is only a hint; without it the pool still works.
-            if placed.is_ok() {
-                self.beside = beside;
-            }
-        }
-    }
-
     /// Sleeps until a worker says something or the next deadline is due.
     fn sleep(&mut self) -> Result<(), EvalError> {
-        self.wait_beside_the_last();
         let until_deadline = self
             .links
             .iter()

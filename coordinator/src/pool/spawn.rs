@@ -49,14 +49,6 @@ impl Children {
         self.procs.is_empty()
     }
 
-    /// The CPU worker `pid` is pinned to, if it is ours and pinned.
-    pub fn cpu_of(&self, pid: u32) -> Option<usize> {
-        self.procs
-            .iter()
-            .find(|(c, _)| c.id() == pid)
-            .and_then(|(_, cpu)| *cpu)
-    }
-
     /// Starts one more worker, on the next free CPU if any.
     pub fn spawn(&mut self) -> Result<(), EvalError> {
         let cpu = self.free_cpus.pop();
