@@ -99,7 +99,7 @@ impl ModeEvaluator {
     /// Workers serving this mode; in-process threads count as workers.
     pub fn workers(&self) -> usize {
         match self {
-            ModeEvaluator::InProcess(e) => e.threads(),
+            ModeEvaluator::InProcess(e) => e.thread_count(),
             ModeEvaluator::Iceoryx2(e) => e.workers(),
             ModeEvaluator::Zenoh(e) => e.workers(),
         }

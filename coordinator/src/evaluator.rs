@@ -58,6 +58,15 @@ pub trait Evaluator {
     /// several trials, so that small generations still fill every core.
     fn evaluate_many(&mut self, batches: Vec<Batch<'_>>)
         -> Result<Vec<Vec<Evaluation>>, EvalError>;
+
+    /// This process's threads for other work between evaluations, such as
+    /// breeding the next generations of the trials in flight: the
+    /// evaluation threads themselves, where there are any, so that two sets
+    /// of threads never contend for the cores; `None` for rayon's global
+    /// pool.
+    fn threads(&self) -> Option<&rayon::ThreadPool> {
+        None
+    }
 }
 
 /// Runs Q(λ) trials, one per job; a learner is sequential within a trial,
@@ -105,12 +114,16 @@ impl InProcess {
         Ok(InProcess { pool })
     }
 
-    pub fn threads(&self) -> usize {
+    pub fn thread_count(&self) -> usize {
         self.pool.current_num_threads()
     }
 }
 
 impl Evaluator for InProcess {
+    fn threads(&self) -> Option<&rayon::ThreadPool> {
+        Some(&self.pool)
+    }
+
     fn evaluate_many(
         &mut self,
         batches: Vec<Batch<'_>>,

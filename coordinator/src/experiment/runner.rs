@@ -7,8 +7,9 @@ use crate::config::{Approach, RunConfig};
 use crate::evaluator::{Backend, EvalError};
 use crate::trial::{env, Generation, TrialError, TrialResult, TrialRun};
 use lander_protocol::wire::TrainJob;
-use lander_protocol::{format_genome, StreamKey, TrainResult};
+use lander_protocol::{format_genome, Evaluation, StreamKey, TrainResult};
 use lander_report::model::{BestLander, FitnessPoint, Learning, TrialRecord};
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// One trial of one method.
@@ -108,8 +109,11 @@ fn evolve(
         }
         let batches = running.iter_mut().map(|r| r.run.batch()).collect();
         let evaluations = backend.evaluate_many(batches)?;
-        for (r, evaluations) in running.iter_mut().zip(&evaluations) {
-            let generation = r.run.accept(evaluations);
+        let generations = match backend.threads() {
+            Some(pool) => pool.install(|| breed(&mut running, &evaluations)),
+            None => breed(&mut running, &evaluations),
+        };
+        for (r, generation) in running.iter_mut().zip(generations) {
             progress.generation(r.task, &generation);
             r.log.push(generation);
         }
@@ -125,6 +129,18 @@ fn evolve(
             }
         }
     }
+}
+
+/// Scores each running trial's generation and breeds its next. Each trial
+/// draws from its own keyed stream, so doing them in parallel changes
+/// nothing but the time: serial, breeding took a sixth of an in-process
+/// experiment's GA time on 2 cores.
+fn breed(running: &mut [Running], evaluations: &[Vec<Evaluation>]) -> Vec<Generation> {
+    running
+        .par_iter_mut()
+        .zip(evaluations)
+        .map(|(r, evaluations)| r.run.accept(evaluations))
+        .collect()
 }
 
 fn learn(
