@@ -33,11 +33,7 @@ impl LanderTask {
             guide: *guide,
             learn: *learn,
             physics: Physics::new(env),
-            coder: TileCoder::new(
-                learn.tile_widths,
-                learn.tilings as usize,
-                1 << learn.memory_bits,
-            ),
+            coder: TileCoder::new(learn.tile_widths, learn.tilings as usize, learn.memory_bits),
             flight: Flight::start(env),
             landed: false,
         }
@@ -60,7 +56,7 @@ impl Task for LanderTask {
         self.landed = false;
     }
 
-    fn features(&self, action: u8, out: &mut [usize]) {
+    fn features(&self, out: &mut [usize]) {
         let s = &self.flight.state;
         let point = [
             s.x - self.env.pad_x,
@@ -69,7 +65,8 @@ impl Task for LanderTask {
             s.vy,
             s.rot,
         ];
-        self.coder.features(&point, action, out);
+        self.coder
+            .features_of_every_action(&point, Self::ACTIONS as u8, out);
     }
 
     fn step(&mut self, action: u8) -> (f64, bool) {

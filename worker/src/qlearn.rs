@@ -16,8 +16,9 @@ pub trait Task {
     fn active(&self) -> usize;
     /// Starts an episode.
     fn reset(&mut self);
-    /// Writes the features of `(current state, action)` into `out`.
-    fn features(&self, action: u8, out: &mut [usize]);
+    /// Writes the features of `(current state, a)` for every action `a`,
+    /// action after action, `active()` each.
+    fn features(&self, out: &mut [usize]);
     /// Takes `action`: the reward, and whether the episode is over.
     fn step(&mut self, action: u8) -> (f64, bool);
 }
@@ -172,12 +173,7 @@ impl QLambda {
         // per state: the values are read from them before and after learning.
         let mut state = vec![0usize; T::ACTIONS * n];
         let mut taken = vec![0usize; n];
-        let see = |task: &T, state: &mut [usize]| {
-            for (a, f) in state.chunks_mut(n).enumerate() {
-                task.features(a as u8, f);
-            }
-        };
-        see(task, &mut state);
+        task.features(&mut state);
         let mut action = self.choose(&self.values(&state, T::ACTIONS), rng);
         let mut stats = EpisodeStats {
             reward: 0.0,
@@ -195,7 +191,7 @@ impl QLambda {
                 self.learn(reward - q_sa);
                 break;
             }
-            see(task, &mut state);
+            task.features(&mut state);
             let before = self.values(&state, T::ACTIONS);
             self.learn(reward + self.params.gamma * max(&before) - q_sa);
             // Sutton & Barto's Figure 8.8 picks the next action from the
@@ -231,8 +227,9 @@ mod tests {
         fn reset(&mut self) {
             self.at = 0;
         }
-        fn features(&self, action: u8, out: &mut [usize]) {
-            out[0] = self.at * 2 + usize::from(action);
+        fn features(&self, out: &mut [usize]) {
+            out[0] = self.at * 2;
+            out[1] = self.at * 2 + 1;
         }
         fn step(&mut self, action: u8) -> (f64, bool) {
             self.at = if action == 1 {
