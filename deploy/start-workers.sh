@@ -127,26 +127,23 @@ for ((i = 1; i <= n; i++)); do
 done
 echo "$me: started $n worker(s) of $worker for run $run at $connect: ${pids[*]}" >&2
 
-# wait -n returns as each worker ends; a trapped signal interrupts it with
-# nothing in $ended, and we go back to waiting.
+# Each worker is waited for by its pid, which bash answers with the exit
+# status even for a worker that ended long ago: `wait -n` looks only at the
+# job table, from which bash may already have dropped a worker that exited
+# at once, and then says 127. A trapped signal interrupts the wait with a
+# status above 128 while the worker still runs; then we wait again.
 failed=0
-running=("${pids[@]}")
-while ((${#running[@]} > 0)); do
-    ended=""
-    status=0
-    wait -n -p ended "${running[@]}" || status=$?
-    if [[ -z ${ended:-} ]]; then
-        ((status > 128)) && continue
-        echo "$me: error: lost track of the workers (wait: $status)" >&2
-        exit 1
-    fi
-    still=()
-    for pid in "${running[@]}"; do
-        [[ $pid == "$ended" ]] || still+=("$pid")
+for pid in "${pids[@]}"; do
+    while true; do
+        status=0
+        wait "$pid" || status=$?
+        if ((status > 128)) && kill -0 "$pid" 2>/dev/null; then
+            continue
+        fi
+        break
     done
-    running=("${still[@]}")
     if ((status != 0)); then
-        echo "$me: worker $ended failed (exit status $status)" >&2
+        echo "$me: worker $pid failed (exit status $status)" >&2
         failed=$((failed + 1))
     fi
 done
