@@ -537,7 +537,8 @@ fn stress_kills_workers_and_loses_nothing() {
 #[test]
 fn qlearning_over_workers_matches_in_process_even_when_its_worker_dies() {
     let iox = Iox::new("qlearn");
-    let args = ["--method", "qlearning", "--episodes", "4000", "--json"];
+    // Long enough (about half a second here) to be killed in the middle.
+    let args = ["--method", "qlearning", "--episodes", "16000", "--json"];
     let calm_dir = tempfile::tempdir().unwrap();
     let (expected, calm_log) = finished(&iox, calm_dir.path(), &args);
 
@@ -558,13 +559,29 @@ fn qlearning_over_workers_matches_in_process_even_when_its_worker_dies() {
         workers = worker_children(child.id());
         !workers.is_empty()
     }));
-    std::thread::sleep(std::time::Duration::from_millis(150));
+    // Killed once it has learned for a while, by its own CPU time: a wall
+    // clock delay raced with the trial's end on a quiet machine.
+    assert!(wait_until(20, || cpu_ms(workers[0]) >= 50));
     signal(workers[0], "KILL");
     let out = child.wait_with_output().unwrap();
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(stderr(&out).contains("exited"), "{}", stderr(&out));
     assert_eq!(without_wall_time(json_out(&out)), expected);
     assert!(fs::read(dir.path().join("episodes.jsonl")).unwrap() == calm_log);
+}
+
+/// The CPU time process `pid` has used, in milliseconds (0 once it is gone).
+fn cpu_ms(pid: u32) -> u64 {
+    let Ok(stat) = fs::read_to_string(format!("/proc/{pid}/stat")) else {
+        return 0;
+    };
+    // After the command's closing parenthesis: state is field 3, utime and
+    // stime fields 14 and 15, in clock ticks (100 a second on Linux).
+    let fields: Vec<&str> = stat
+        .rsplit_once(')')
+        .map_or(Vec::new(), |(_, rest)| rest.split_whitespace().collect());
+    let ticks = |i: usize| fields.get(i - 3).and_then(|v| v.parse::<u64>().ok());
+    (ticks(14).unwrap_or(0) + ticks(15).unwrap_or(0)) * 10
 }
 
 /// The CPUs process `pid` may run on, as /proc lists them ("0-1", "3").
