@@ -123,6 +123,19 @@ fn results_round_trip_and_bad_ones_are_refused() {
         ChunkResult::decode(&action.encode(), Method::Guided, 2, 2),
         Err(WireError::Action { index: 2, .. })
     ));
+    let mut last = vec![3; 5000];
+    last[4999] = 4;
+    let late = ChunkResult {
+        evaluations: vec![evaluation(1.0); 100],
+        actions: last,
+    };
+    assert_eq!(
+        ChunkResult::decode(&late.encode(), Method::Guided, 100, 50),
+        Err(WireError::Action {
+            index: 4999,
+            action: 4
+        })
+    );
 }
 
 #[test]
@@ -175,4 +188,34 @@ fn training_results_are_checked() {
     let mut nan = good;
     nan.episodes[0].reward = f64::NAN;
     assert!(decode_training(&encode(&nan), 2).is_err());
+}
+
+use proptest::prelude::*;
+
+proptest! {
+    /// Whatever a flight can produce comes back bit for bit.
+    #[test]
+    fn every_plausible_result_round_trips(
+        state in proptest::array::uniform5(-1e12f64..1e12),
+        fitness in -1e12f64..1e12,
+        (ticks, n) in (0u32..u32::MAX).prop_flat_map(|t| (Just(t), 0..=t)),
+        extra in 0u64..1 << 40,
+        (touched_down, safe) in any::<(bool, bool)>(),
+        actions in proptest::collection::vec(0u8..4, 7),
+    ) {
+        let [x, y, vx, vy, rot] = state;
+        let e = Evaluation {
+            outcome: Outcome {
+                state: State { x, y, vx, vy, rot },
+                ticks,
+                n,
+                touched_down,
+                safe: safe && touched_down,
+                fitness,
+            },
+            simulated_ticks: u64::from(ticks - n) + extra,
+        };
+        let r = ChunkResult { evaluations: vec![e], actions };
+        prop_assert_eq!(ChunkResult::decode(&r.encode(), Method::Guided, 1, 7), Ok(r));
+    }
 }
