@@ -31,6 +31,12 @@ pub enum EvalError {
     Ipc(#[from] IpcError),
     #[error("cannot start the worker {exe}: {reason} (build it with `cargo build --release -p lander-worker`)")]
     Spawn { exe: String, reason: String },
+    #[error(
+        "the worker {exe} speaks protocol version {got}, this lander {}: they come from \
+         different builds (build both with `cargo build --release --workspace --bins`)",
+        lander_protocol::wire::PROTOCOL_VERSION
+    )]
+    WorkerVersion { exe: String, got: u32 },
     #[error("every worker died and the {respawns} respawns allowed are used up")]
     NoWorkers { respawns: usize },
     #[error("only {got} of {wanted} workers announced themselves within {secs} s")]

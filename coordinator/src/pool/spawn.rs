@@ -49,6 +49,16 @@ impl Children {
         self.procs.is_empty()
     }
 
+    /// True if `pid` is a live worker started here.
+    pub fn started(&self, pid: u32) -> bool {
+        self.procs.iter().any(|(child, _)| child.id() == pid)
+    }
+
+    /// The worker executable.
+    pub fn exe(&self) -> &std::path::Path {
+        &self.exe
+    }
+
     /// Starts one more worker, on the next free CPU if any.
     pub fn spawn(&mut self) -> Result<(), EvalError> {
         let cpu = self.free_cpus.pop();
@@ -107,6 +117,13 @@ impl Children {
     /// Kills a hung worker; the next `exited` reaps it.
     pub fn kill(&mut self, pid: u32) {
         if let Some((c, _)) = self.procs.iter_mut().find(|(c, _)| c.id() == pid) {
+            let _ = c.kill();
+        }
+    }
+
+    /// Kills every worker, for a pool that cannot use them.
+    pub fn kill_all(&mut self) {
+        for (c, _) in &mut self.procs {
             let _ = c.kill();
         }
     }
