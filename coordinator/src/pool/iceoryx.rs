@@ -295,9 +295,9 @@ impl WorkerLink for Link {
     /// flight, the refused one among them, are then run elsewhere.
     fn poll(&mut self) -> (Vec<Answer>, Option<String>) {
         let mut answered = Vec::new();
-        let mut i = 0;
-        while i < self.busy.len() {
-            let flight = &self.busy[i];
+        // The worker answers its queue in order, so the first request still
+        // unanswered ends the look: nothing behind it has an answer yet.
+        while let Some(flight) = self.busy.front() {
             // Read before receiving: a worker answers, then lets go of the
             // request, so a request seen let go before a receive that finds
             // nothing was truly never answered. Read after, a worker that
@@ -309,25 +309,22 @@ impl WorkerLink for Link {
                     let timing = ChunkTiming::read_now(self.id, flight.sent_ns, h);
                     check(flight.job_id, h, response.payload()).map(|body| (body, timing))
                 }
-                Ok(None) if connected => {
-                    i += 1;
-                    continue;
-                }
+                Ok(None) if connected => break,
                 Ok(None) | Err(_) => {
                     self.broken = true;
                     break;
                 }
             };
-            let job_id = flight.job_id;
             match answer {
                 Ok((body, timing)) => {
-                    self.passed_over.retain(|&skipped| skipped > job_id);
+                    let job_id = flight.job_id;
                     answered.push(Answer {
                         job: flight.job,
                         body,
                         timing,
                     });
-                    self.busy.remove(i);
+                    self.passed_over.retain(|&skipped| skipped > job_id);
+                    self.busy.pop_front();
                 }
                 Err(e) => {
                     self.broken = true;
