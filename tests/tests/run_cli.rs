@@ -353,17 +353,26 @@ fn a_run_replaces_an_earlier_runs_outputs_and_leaves_an_experiment_alone() {
     }
     assert!(dir.path().join("episodes.jsonl").exists());
 
+    // A run into `dir` fails, naming `needle`.
+    let refused_in = |dir: &std::path::Path, needle: &str| {
+        let out = lander(&[
+            "run",
+            "--max-generations",
+            "1",
+            "--out",
+            dir.to_str().unwrap(),
+        ]);
+        assert!(!out.status.success());
+        assert!(stderr(&out).contains(needle), "{}", stderr(&out));
+    };
+
     // A file of a run's name that no run wrote is neither removed nor
     // overwritten.
     let theirs = tempfile::tempdir().unwrap();
     fs::write(theirs.path().join("summary.json"), "{\"total\": 3}").unwrap();
-    let out = theirs.path().to_str().unwrap();
-    let refused = lander(&["run", "--max-generations", "1", "--out", out]);
-    assert!(!refused.status.success());
-    assert!(
-        stderr(&refused).contains("summary.json is not a file a lander run wrote"),
-        "{}",
-        stderr(&refused)
+    refused_in(
+        theirs.path(),
+        "summary.json is not a file a lander run wrote",
     );
     assert_eq!(
         fs::read_to_string(theirs.path().join("summary.json")).unwrap(),
@@ -372,13 +381,6 @@ fn a_run_replaces_an_earlier_runs_outputs_and_leaves_an_experiment_alone() {
 
     let experiment = tempfile::tempdir().unwrap();
     fs::write(experiment.path().join("experiment.json"), "{}").unwrap();
-    let out = experiment.path().to_str().unwrap();
-    let refused = lander(&["run", "--max-generations", "1", "--out", out]);
-    assert!(!refused.status.success());
-    assert!(
-        stderr(&refused).contains("experiment.json"),
-        "{}",
-        stderr(&refused)
-    );
+    refused_in(experiment.path(), "experiment.json");
     assert!(!experiment.path().join("generations.jsonl").exists());
 }

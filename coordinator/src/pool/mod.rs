@@ -304,7 +304,7 @@ impl<T: Transport> Pool<T> {
                 if self.children.started(w.pid) {
                     self.children.kill_all();
                     return Err(EvalError::WorkerVersion {
-                        exe: self.children.exe().display().to_string(),
+                        exe: self.opts.worker_exe.display().to_string(),
                         got: w.version,
                     });
                 }

@@ -54,11 +54,6 @@ impl Children {
         self.procs.iter().any(|(child, _)| child.id() == pid)
     }
 
-    /// The worker executable.
-    pub fn exe(&self) -> &std::path::Path {
-        &self.exe
-    }
-
     /// Starts one more worker, on the next free CPU if any.
     pub fn spawn(&mut self) -> Result<(), EvalError> {
         let cpu = self.free_cpus.pop();
