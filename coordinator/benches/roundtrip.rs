@@ -9,9 +9,8 @@ use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::{Batch, Evaluator, InProcess};
 use lander_coordinator::ga::random_population;
 use lander_coordinator::pool::{IpcPool, PoolOptions};
-use lander_coordinator::trial::env;
-use lander_protocol::stream::streams;
-use lander_protocol::{Method, StreamKey};
+use lander_model::stream::streams;
+use lander_model::{Pass, StreamKey};
 use std::time::Duration;
 
 fn worker_pool() -> IpcPool {
@@ -35,6 +34,7 @@ fn worker_pool() -> IpcPool {
         deadline: Duration::from_secs(30),
         max_respawns: 0,
         pin: true,
+        stop: Default::default(),
     };
     let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("{m}"))).expect("pool starts");
     pool.wait_for_workers(1, Duration::from_secs(20))
@@ -59,8 +59,8 @@ fn roundtrip(c: &mut Criterion) {
                     |g| {
                         evaluator
                             .evaluate(Batch {
-                                env: env(&cfg, 0),
-                                method: Method::Ga,
+                                env: cfg.env(0),
+                                method: Pass::Fly,
                                 guide: cfg.guided,
                                 key,
                                 max_duration: cfg.ga.max_duration,

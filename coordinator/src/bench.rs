@@ -7,10 +7,9 @@ use crate::config::RunConfig;
 use crate::evaluator::{Batch, EvalError, Evaluator, InProcess};
 use crate::ga::{random_population, Genome};
 use crate::pool::{ChunkTiming, IpcPool, ZenohPool};
-use crate::trial::env;
-use lander_protocol::stream::streams;
-use lander_protocol::{Env, Evaluation, Method, StreamKey};
-use lander_worker::cpu::thread_cpu_time;
+use lander_model::stream::streams;
+use lander_model::{Env, Evaluation, Pass, StreamKey};
+use lander_protocol::host::thread_cpu_time;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::hash::{DefaultHasher, Hash, Hasher};
@@ -22,7 +21,7 @@ use std::time::{Duration, Instant};
 /// together as `lander experiment` steps the trials it has in flight.
 pub struct Workload {
     pub cfg: RunConfig,
-    pub method: Method,
+    pub method: Pass,
     pub in_flight: usize,
     /// Per step, one population per trial in flight.
     pub steps: Vec<Vec<Population>>,
@@ -38,7 +37,7 @@ pub struct Population {
 impl Workload {
     /// `generations` steps of `in_flight` trials, numbered from the
     /// configuration's trial on.
-    pub fn new(cfg: &RunConfig, method: Method, generations: u64, in_flight: usize) -> Workload {
+    pub fn new(cfg: &RunConfig, method: Pass, generations: u64, in_flight: usize) -> Workload {
         let trials: Vec<RunConfig> = (0..in_flight as u64)
             .map(|t| RunConfig {
                 trial: cfg.trial + t,
@@ -52,7 +51,7 @@ impl Workload {
                     .map(|trial| {
                         let key = StreamKey::new(trial.seed, trial.trial, 0, g);
                         Population {
-                            env: env(trial, 0),
+                            env: trial.env(0),
                             key,
                             genomes: random_population(&trial.ga, &mut key.rng(streams::OPERATORS)),
                         }

@@ -2,48 +2,20 @@
 //! defaults (and the Q(λ) baseline's), read from TOML and validated field by field.
 
 use crate::ga::GaParams;
-use lander_protocol::check::{
-    at_most, check, finite, non_negative, positive, probability, ParamError,
-};
-use lander_protocol::{GuideParams, LearnParams, Method, Scoring, World};
+use lander_model::check::ParamError;
+use lander_model::stream::streams;
+use lander_model::StreamKey;
+use lander_model::{Env, GuideParams, LearnParams, Method, Scoring, World};
+use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-
-/// What a run does: evolve with the general or the guided GA, or learn
-/// with the Q(λ) baseline.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Approach {
-    Ga,
-    Guided,
-    Qlearning,
-}
-
-impl Approach {
-    pub fn name(self) -> &'static str {
-        match self {
-            Approach::Ga => "ga",
-            Approach::Guided => "guided",
-            Approach::Qlearning => "qlearning",
-        }
-    }
-
-    /// How a GA evaluates its genomes; `None` for Q-learning.
-    pub fn evolution(self) -> Option<Method> {
-        match self {
-            Approach::Ga => Some(Method::Ga),
-            Approach::Guided => Some(Method::Guided),
-            Approach::Qlearning => None,
-        }
-    }
-}
 
 /// Everything one trial needs. Every key is optional in the file; unknown
 /// keys are errors.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RunConfig {
-    pub method: Approach,
+    pub method: Method,
     pub seed: u64,
     /// Trials are numbered from 1; trial `t` draws `x0` and `pad_x` from
     /// `(seed, t)`.
@@ -60,7 +32,7 @@ pub struct RunConfig {
 impl Default for RunConfig {
     fn default() -> Self {
         RunConfig {
-            method: Approach::Guided,
+            method: Method::Guided,
             seed: 1,
             trial: 1,
             threads: 0,
@@ -108,71 +80,39 @@ impl RunConfig {
         Ok(cfg)
     }
 
-    /// Checks every field, naming the first that is out of range.
+    /// Checks every field, naming the first that is out of range. Each
+    /// section checks itself; run it again after every override.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        let w = &self.world;
-        positive("world.width", w.width)?;
-        positive("world.height", w.height)?;
-        at_most("world.width", w.width, 1e6)?;
-        at_most("world.height", w.height, 1e6)?;
-        finite("world.gravity", w.gravity)?;
-        finite("world.thrust", w.thrust)?;
-        positive("world.mass", w.mass)?;
-        positive("world.ticks_per_second", w.ticks_per_second)?;
-        finite("world.rotation_step", w.rotation_step)?;
-        finite("world.start_drop", w.start_drop)?;
-        finite("world.ground_y", w.ground_y)?;
-        positive("world.hull_scale", w.hull_scale)?;
-        non_negative("world.pad_margin", w.pad_margin)?;
-        check(
-            "world.pad_margin",
-            2.0 * w.pad_margin < w.width,
-            "must be less than half of world.width",
-        )?;
-        check(
-            "world.max_ticks",
-            (1..=1_000_000).contains(&w.max_ticks),
-            "must be 1 to 1,000,000",
-        )?;
-        // Upside down (rot = π) the hull's top, its largest model y, is
-        // lowest; a lander starting with it under the ground would touch
-        // down on the first tick, to numbers that mean nothing.
-        let top = lander_worker::HULL
-            .iter()
-            .map(|p| p.1)
-            .fold(f64::NEG_INFINITY, f64::max);
-        let least = w.ground_y + w.start_drop + w.hull_scale * top;
-        check(
-            "world.height",
-            w.height > least,
-            &format!(
-                "must be more than {least:?}, so that the lander, starting world.start_drop \
-                 below the top, is above world.ground_y (got {:?})",
-                w.height
-            ),
-        )?;
-
-        let s = &self.scoring;
-        // Bounded so that fitness and R stay finite for any flight.
-        at_most("scoring.w1", s.w1.abs(), 1e12)?;
-        at_most("scoring.w2", s.w2.abs(), 1e12)?;
-        at_most("scoring.w3", s.w3.abs(), 1e12)?;
-        at_most("scoring.big_number", s.big_number.abs(), 1e15)?;
-        non_negative("scoring.safe_distance", s.safe_distance)?;
-        non_negative("scoring.safe_speed", s.safe_speed)?;
-        non_negative("scoring.safe_rotation", s.safe_rotation)?;
-
-        let g = &self.guided;
-        probability("guided.epsilon", g.epsilon)?;
-        positive("guided.w_y", g.w_y)?;
-        finite("guided.h1", g.h1)?;
-        finite("guided.r", g.r)?;
-        finite("guided.h2", g.h2)?;
-        finite("guided.w_t", g.w_t)?;
-
-        self.ga.validate()?;
+        self.world.check()?;
+        self.scoring.check()?;
+        self.guided.check()?;
+        self.ga.check()?;
         Ok(self.qlearning.check()?)
     }
+
+    /// The environment of one attempt: the configured world, the trial's
+    /// start column and the restart's pad.
+    pub fn env(&self, restart: u64) -> Env {
+        Env {
+            world: self.world,
+            scoring: self.scoring,
+            x0: start_x(self),
+            pad_x: pad_x(self, restart),
+        }
+    }
+}
+
+/// The trial's start column, `U[0, W)` from `(seed, trial)`.
+fn start_x(cfg: &RunConfig) -> f64 {
+    let key = StreamKey::new(cfg.seed, cfg.trial, 0, 0);
+    key.rng(streams::START).random::<f64>() * cfg.world.width
+}
+
+/// The pad of a restart, `U[margin, W − margin)` from `(seed, trial, restart)`.
+fn pad_x(cfg: &RunConfig, restart: u64) -> f64 {
+    let key = StreamKey::new(cfg.seed, cfg.trial, restart, 0);
+    let m = cfg.world.pad_margin;
+    m + key.rng(streams::PAD).random::<f64>() * (cfg.world.width - 2.0 * m)
 }
 
 #[cfg(test)]
@@ -202,7 +142,7 @@ mod tests {
     #[test]
     fn overrides_are_read_from_their_sections() {
         let cfg = parse("method = \"ga\"\n[ga]\npopulation = 20\ncrossover = \"buckland\"\n[world]\nwidth = 500.0\n").unwrap();
-        assert_eq!(cfg.method, Approach::Ga);
+        assert_eq!(cfg.method, Method::Ga);
         assert_eq!(cfg.ga.population, 20);
         assert_eq!(cfg.ga.crossover, crate::ga::Crossover::Buckland);
         assert_eq!(cfg.world.width, 500.0);

@@ -2,19 +2,20 @@
 //! and the transports; [`InProcess`] is the embedded default, a rayon pool.
 
 use crate::ga::Genome;
+use crate::stop::Stop;
+use lander_model::learn::run_training;
+use lander_model::TrainJob;
+use lander_model::TrainResult;
+use lander_model::{evaluate, Evaluation};
+use lander_model::{Env, GuideParams, Pass, StreamKey};
 use lander_protocol::iox::IpcError;
-use lander_protocol::wire::TrainJob;
-use lander_protocol::TrainResult;
-use lander_protocol::{Env, GuideParams, Method, StreamKey};
-use lander_worker::learn::run_training;
-use lander_worker::{evaluate, Evaluation};
 use rayon::prelude::*;
 
 /// One generation's worth of work. Genome `i` uses the guided-pass stream
 /// `(key, i)`, so the results do not depend on who flies which genome.
 pub struct Batch<'a> {
     pub env: Env,
-    pub method: Method,
+    pub method: Pass,
     pub guide: GuideParams,
     pub key: StreamKey,
     /// The largest duration a gene may have.
@@ -97,6 +98,7 @@ pub const MAX_THREADS: usize = 1024;
 /// Evaluation on this process's own threads.
 pub struct InProcess {
     pool: rayon::ThreadPool,
+    stop: Stop,
 }
 
 impl InProcess {
@@ -117,7 +119,16 @@ impl InProcess {
                 threads,
                 reason: e.to_string(),
             })?;
-        Ok(InProcess { pool })
+        Ok(InProcess {
+            pool,
+            stop: Stop::new(),
+        })
+    }
+
+    /// Stops at the next generation or trial once `stop` is asked.
+    pub fn stopping_on(mut self, stop: Stop) -> InProcess {
+        self.stop = stop;
+        self
     }
 
     pub fn thread_count(&self) -> usize {
@@ -134,7 +145,7 @@ impl Evaluator for InProcess {
         &mut self,
         batches: Vec<Batch<'_>>,
     ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
-        if crate::stop::asked() {
+        if self.stop.asked() {
             return Err(EvalError::Interrupted);
         }
         Ok(self.pool.install(|| {
@@ -160,7 +171,7 @@ impl Trainer for InProcess {
         done: &mut dyn FnMut(usize, &TrainResult),
     ) -> Result<Vec<TrainResult>, EvalError> {
         let (tx, rx) = std::sync::mpsc::channel();
-        let pool = &self.pool;
+        let (pool, stop) = (&self.pool, &self.stop);
         let mut results: Vec<Option<TrainResult>> = jobs.iter().map(|_| None).collect();
         std::thread::scope(|s| {
             s.spawn(move || {
@@ -169,7 +180,7 @@ impl Trainer for InProcess {
                         .enumerate()
                         .for_each_with(tx, |tx, (i, job)| {
                             // Trials under way finish; no new one starts.
-                            if crate::stop::asked() {
+                            if stop.asked() {
                                 return;
                             }
                             // The receiver outlives the loop; a failed send
@@ -183,7 +194,7 @@ impl Trainer for InProcess {
                 results[i] = Some(result);
             }
         });
-        if crate::stop::asked() {
+        if self.stop.asked() {
             return Err(EvalError::Interrupted);
         }
         Ok(results.into_iter().flatten().collect())

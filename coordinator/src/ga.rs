@@ -5,9 +5,8 @@
 //! `(seed, trial, restart, generation)`, so a generation is rebuilt the same
 //! way wherever and however often it is run.
 
-use crate::config::ConfigError;
-use lander_protocol::check::{check, non_negative, probability};
-use lander_protocol::{Action, Gene};
+use lander_model::check::{check, non_negative, probability, ParamError};
+use lander_model::{Action, Gene};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -63,7 +62,8 @@ impl Default for GaParams {
 }
 
 impl GaParams {
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    /// Checks every field, naming the first out of range.
+    pub fn check(&self) -> Result<(), ParamError> {
         check(
             "ga.population",
             (1..=1_000_000).contains(&self.population),

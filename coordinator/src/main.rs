@@ -1,27 +1,40 @@
 //! `lander`: the command line. Each subcommand lives in `cli/`; this file
-//! only parses arguments and turns errors into a message and an exit code.
+//! only parses arguments, handles SIGINT and SIGTERM, and turns errors into
+//! a message and an exit code.
 
 mod cli;
 
 use clap::Parser;
+use lander_coordinator::stop::Stop;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
-    if let Err(e) = lander_coordinator::stop::install() {
+    let stop = Stop::new();
+    if let Err(e) = stop_on_signals(&stop) {
         eprintln!("error: cannot handle SIGINT and SIGTERM: {e}");
         return ExitCode::FAILURE;
     }
-    match cli::dispatch(args) {
+    match cli::dispatch(args, &stop) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             // 128 + SIGINT, as a shell reports a process Ctrl-C stopped.
-            ExitCode::from(if lander_coordinator::stop::asked() {
-                130
-            } else {
-                1
-            })
+            ExitCode::from(if stop.asked() { 130 } else { 1 })
         }
     }
+}
+
+/// SIGINT and SIGTERM ask `stop`: the work stops at its next look, and the
+/// pool's `Drop` tells the workers and removes the run's files. A second
+/// signal ends the process at once, with 130.
+fn stop_on_signals(stop: &Stop) -> std::io::Result<()> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    for signal in [SIGINT, SIGTERM] {
+        // Registered first, so it sees the flag as the previous signal
+        // left it: set means this is the second.
+        signal_hook::flag::register_conditional_shutdown(signal, 130, stop.flag())?;
+        signal_hook::flag::register(signal, stop.flag())?;
+    }
+    Ok(())
 }

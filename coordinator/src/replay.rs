@@ -2,10 +2,10 @@
 //! [`lander_report::model::Flight`], and the best landing of an experiment.
 
 use crate::experiment::Experiment;
-use lander_protocol::{parse_genome, Action, Env, Gene};
+use lander_model::score::fitness;
+use lander_model::{fly_traced, Outcome, HULL};
+use lander_model::{parse_genome, Action, Env, Gene};
 use lander_report::model::{Flight, Frame, Scene, TrialRecord};
-use lander_worker::score::fitness;
-use lander_worker::{fly_traced, Outcome, HULL};
 
 /// The most frames a replay keeps; a longer flight keeps every k-th tick.
 pub const MAX_FRAMES: usize = 20_000;
@@ -104,12 +104,11 @@ pub fn best_landing(exp: &Experiment, records: &[TrialRecord]) -> Option<Flight>
 mod tests {
     use super::*;
     use crate::config::RunConfig;
-    use crate::trial::env;
 
     #[test]
     fn a_trace_starts_at_the_start_and_ends_at_touchdown() {
         let cfg = RunConfig::default();
-        let env = env(&cfg, 0);
+        let env = cfg.env(0);
         let genes = parse_genome("2:10,3:5", 30).unwrap();
         let (flight, outcome) = trace(&env, &genes, "t".into());
         assert_eq!(flight.frames.len(), outcome.ticks as usize + 1);

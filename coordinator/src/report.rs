@@ -4,8 +4,8 @@
 
 use crate::config::RunConfig;
 use crate::trial::{Generation, TrialResult};
-use lander_protocol::format_genome;
-use lander_worker::Outcome;
+use lander_model::format_genome;
+use lander_model::Outcome;
 use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};

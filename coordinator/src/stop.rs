@@ -1,27 +1,52 @@
-//! Ctrl-C and SIGTERM for the coordinator. The first asks the work to stop
-//! at its next look (before an in-process generation, and within a
-//! pool's sleep slice over workers), so the error unwinds through the
+//! A stop handle: how whoever started the work asks it to stop.
+//!
+//! The evaluators look at it before each generation (in-process) and
+//! within each sleep slice (over workers), so a stop unwinds as an
+//! [`EvalError::Interrupted`](crate::evaluator::EvalError) through the
 //! pool's `Drop`: workers are told the run is over and the run's shared
-//! memory is removed. A second signal ends the process at once.
+//! memory is removed. The `lander` binary sets it from its SIGINT and
+//! SIGTERM handlers; a library user sets it with [`Stop::ask`].
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, LazyLock};
+use std::sync::Arc;
 
-static ASKED: LazyLock<Arc<AtomicBool>> = LazyLock::new(|| Arc::new(AtomicBool::new(false)));
+/// A flag shared by clones: one [`ask`](Stop::ask) reaches them all. The
+/// default is a handle nobody has asked yet.
+#[derive(Clone, Debug, Default)]
+pub struct Stop(Arc<AtomicBool>);
 
-/// Installs the handlers for SIGINT and SIGTERM.
-pub fn install() -> std::io::Result<()> {
-    use signal_hook::consts::{SIGINT, SIGTERM};
-    for signal in [SIGINT, SIGTERM] {
-        // Registered first, so it sees the flag as the previous signal
-        // left it: set means this is the second.
-        signal_hook::flag::register_conditional_shutdown(signal, 130, ASKED.clone())?;
-        signal_hook::flag::register(signal, ASKED.clone())?;
+impl Stop {
+    pub fn new() -> Stop {
+        Stop::default()
     }
-    Ok(())
+
+    /// Asks the work to stop at its next look.
+    pub fn ask(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether someone asked the work to stop.
+    pub fn asked(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+
+    /// The flag itself, for a signal handler to set.
+    pub fn flag(&self) -> Arc<AtomicBool> {
+        self.0.clone()
+    }
 }
 
-/// Whether a signal asked the work to stop.
-pub fn asked() -> bool {
-    ASKED.load(Ordering::Relaxed)
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn asking_one_clone_stops_them_all() {
+        let stop = Stop::new();
+        let seen = stop.clone();
+        assert!(!seen.asked());
+        stop.ask();
+        assert!(seen.asked());
+        assert!(Stop::default().asked() == false);
+    }
 }

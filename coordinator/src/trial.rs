@@ -5,10 +5,9 @@
 use crate::config::RunConfig;
 use crate::evaluator::{Batch, EvalError, Evaluator};
 use crate::ga::{next_generation, random_population, Genome};
-use lander_protocol::stream::streams;
-use lander_protocol::{Env, Method, StreamKey};
-use lander_worker::{Evaluation, Outcome};
-use rand::Rng;
+use lander_model::stream::streams;
+use lander_model::{Env, Pass, StreamKey};
+use lander_model::{Evaluation, Outcome};
 use serde::Serialize;
 
 /// One generation's record, a line of `generations.jsonl`.
@@ -45,29 +44,6 @@ pub struct TrialResult {
     pub best: Best,
 }
 
-/// The trial's start column, `U[0, W)` from `(seed, trial)`.
-pub fn start_x(cfg: &RunConfig) -> f64 {
-    let key = StreamKey::new(cfg.seed, cfg.trial, 0, 0);
-    key.rng(streams::START).random::<f64>() * cfg.world.width
-}
-
-/// The pad of a restart, `U[margin, W − margin)` from `(seed, trial, restart)`.
-pub fn pad_x(cfg: &RunConfig, restart: u64) -> f64 {
-    let key = StreamKey::new(cfg.seed, cfg.trial, restart, 0);
-    let m = cfg.world.pad_margin;
-    m + key.rng(streams::PAD).random::<f64>() * (cfg.world.width - 2.0 * m)
-}
-
-/// The environment of one attempt.
-pub fn env(cfg: &RunConfig, restart: u64) -> Env {
-    Env {
-        world: cfg.world,
-        scoring: cfg.scoring,
-        x0: start_x(cfg),
-        pad_x: pad_x(cfg, restart),
-    }
-}
-
 /// An observer's own failure, such as a log it cannot write.
 pub type ObserveError = Box<dyn std::error::Error + Send + Sync>;
 
@@ -76,7 +52,7 @@ pub type Observer<'a> = dyn FnMut(&Generation) -> Result<(), ObserveError> + 'a;
 
 #[derive(Debug, thiserror::Error)]
 pub enum TrialError {
-    #[error("{0} is not a genetic algorithm; it trains with lander_worker::learn::train")]
+    #[error("{0} is not a genetic algorithm; it trains with lander_model::learn::train")]
     NotEvolution(&'static str),
     #[error(transparent)]
     Eval(#[from] EvalError),
@@ -109,7 +85,7 @@ pub fn run_trial(
 /// [`accept`]: TrialRun::accept
 pub struct TrialRun {
     cfg: RunConfig,
-    method: Method,
+    method: Pass,
     env: Env,
     restart: u64,
     /// The generation being flown, within its restart, from 1.
@@ -126,12 +102,12 @@ impl TrialRun {
     pub fn new(cfg: &RunConfig) -> Result<TrialRun, TrialError> {
         let method = cfg
             .method
-            .evolution()
+            .pass()
             .ok_or(TrialError::NotEvolution(cfg.method.name()))?;
         let mut run = TrialRun {
             cfg: cfg.clone(),
             method,
-            env: env(cfg, 0),
+            env: cfg.env(0),
             restart: 0,
             generation: 1,
             index: 0,
@@ -149,7 +125,7 @@ impl TrialRun {
 
     fn begin_attempt(&mut self, restart: u64) {
         self.restart = restart;
-        self.env = env(&self.cfg, restart);
+        self.env = self.cfg.env(restart);
         self.generation = 1;
         self.best = None;
         let mut rng = self.key(1).rng(streams::OPERATORS);

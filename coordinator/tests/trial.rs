@@ -1,10 +1,10 @@
 //! A trial as a whole: the same result whatever the thread count, restarts
 //! that keep `x0` and draw a new pad, and the paper's headline behaviour.
 
-use lander_coordinator::config::Approach as Method;
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::InProcess;
-use lander_coordinator::trial::{env, run_trial, Generation, TrialResult};
+use lander_coordinator::trial::{run_trial, Generation, TrialResult};
+use lander_model::Method;
 use proptest::prelude::*;
 
 fn small(method: Method, seed: u64) -> RunConfig {
@@ -70,7 +70,7 @@ fn restarts_keep_x0_draw_a_new_pad_and_keep_counting() {
             (8, 3, 2)
         ]
     );
-    let (first, last) = (env(&cfg, 0), env(&cfg, 3));
+    let (first, last) = (cfg.env(0), cfg.env(3));
     assert_eq!(first.x0, result.x0);
     assert_eq!(last.x0, result.x0);
     assert_eq!(last.pad_x, result.pad_x);
@@ -81,9 +81,9 @@ fn restarts_keep_x0_draw_a_new_pad_and_keep_counting() {
 #[test]
 fn trials_draw_different_ground() {
     let mut cfg = RunConfig::default();
-    let a = env(&cfg, 0);
+    let a = cfg.env(0);
     cfg.trial = 2;
-    let b = env(&cfg, 0);
+    let b = cfg.env(0);
     assert_ne!((a.x0, a.pad_x), (b.x0, b.pad_x));
 }
 

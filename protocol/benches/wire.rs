@@ -7,8 +7,8 @@
 //! `cargo bench -p lander-protocol --bench wire`
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use lander_model::{Evaluation, Outcome, Pass, State};
 use lander_protocol::wire::ChunkResult;
-use lander_protocol::{Evaluation, Method, Outcome, State};
 use std::hint::black_box;
 
 const GENOMES: usize = 100;
@@ -46,7 +46,7 @@ fn decode(c: &mut Criterion) {
     let mut group = c.benchmark_group("a guided chunk of 100 genomes");
     group.throughput(Throughput::Elements(GENOMES as u64));
     group.bench_function("decode and check", |b| {
-        b.iter(|| ChunkResult::decode(black_box(&bytes), Method::Guided, GENOMES, LENGTH))
+        b.iter(|| ChunkResult::decode(black_box(&bytes), Pass::Guide, GENOMES, LENGTH))
     });
     group.bench_function("postcard alone", |b| {
         b.iter(|| postcard::from_bytes::<ChunkResult>(black_box(&bytes)))

@@ -11,10 +11,10 @@
 //! A job of kind [`KIND_TRAIN`] is a whole Q(λ) trial instead: no genes, and
 //! a postcard [`TrainResult`] back.
 
-use crate::{
-    Action, Env, Evaluation, Gene, GuideParams, LearnParams, Method, StreamKey, TrainResult,
-};
 use iceoryx2::prelude::ZeroCopySend;
+use lander_model::{
+    Action, Env, Evaluation, Gene, GuideParams, LearnParams, Pass, StreamKey, TrainJob, TrainResult,
+};
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever any layout here changes.
@@ -126,7 +126,7 @@ pub enum WireError {
     #[error("protocol version {got}, but this side speaks version {PROTOCOL_VERSION}")]
     Version { got: u32 },
     #[error("unknown method code {0}")]
-    Method(u32),
+    Pass(u32),
     #[error("{genomes} genomes of {length} genes need {expected} genes, but {got} arrived")]
     Length {
         genomes: u32,
@@ -153,7 +153,7 @@ pub enum WireError {
     #[error("a training job carries no genes, but {0} arrived")]
     GenesInTraining(usize),
     #[error("training parameters out of range: {0}")]
-    Learning(crate::check::ParamError),
+    Learning(lander_model::check::ParamError),
     #[error("training result is not a possible trial of {0} episodes")]
     ImplausibleTraining(u32),
 }
@@ -165,19 +165,10 @@ pub enum Job {
     Train(TrainJob),
 }
 
-/// A whole Q(λ) trial.
-#[derive(Clone, Debug, PartialEq)]
-pub struct TrainJob {
-    pub env: Env,
-    pub guide: GuideParams,
-    pub learn: LearnParams,
-    pub key: StreamKey,
-}
-
 /// A chunk of genomes to evaluate.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EvalJob {
-    pub method: Method,
+    pub pass: Pass,
     pub key: StreamKey,
     pub first_index: u64,
     pub genome_length: usize,
@@ -196,32 +187,30 @@ impl Job {
         check_numbers(h)?;
         match h.kind {
             KIND_EVALUATE => EvalJob::from_wire(h, genes).map(Job::Evaluate),
-            KIND_TRAIN => TrainJob::from_wire(h, genes).map(Job::Train),
+            KIND_TRAIN => train_from_wire(h, genes).map(Job::Train),
             other => Err(WireError::Kind(other)),
         }
     }
 }
 
-impl TrainJob {
-    fn from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<TrainJob, WireError> {
-        if !genes.is_empty() {
-            return Err(WireError::GenesInTraining(genes.len()));
-        }
-        // The same check as the run configuration's: among other things
-        // it bounds the 2^memory_bits weights the worker allocates.
-        h.learn.check().map_err(WireError::Learning)?;
-        Ok(TrainJob {
-            env: h.env,
-            guide: h.guide,
-            learn: h.learn,
-            key: h.key,
-        })
+fn train_from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<TrainJob, WireError> {
+    if !genes.is_empty() {
+        return Err(WireError::GenesInTraining(genes.len()));
     }
+    // The same check as the run configuration's: among other things
+    // it bounds the 2^memory_bits weights the worker allocates.
+    h.learn.check().map_err(WireError::Learning)?;
+    Ok(TrainJob {
+        env: h.env,
+        guide: h.guide,
+        learn: h.learn,
+        key: h.key,
+    })
 }
 
 impl EvalJob {
     fn from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<EvalJob, WireError> {
-        let method = Method::from_code(h.method).ok_or(WireError::Method(h.method))?;
+        let pass = Pass::from_code(h.method).ok_or(WireError::Pass(h.method))?;
         let expected = h.genomes as usize * h.genome_length as usize;
         if genes.len() != expected || h.genome_length == 0 {
             return Err(WireError::Length {
@@ -237,7 +226,7 @@ impl EvalJob {
             .map(|(index, g)| check_gene(index, *g, h.max_duration))
             .collect::<Result<_, _>>()?;
         Ok(EvalJob {
-            method,
+            pass,
             key: h.key,
             first_index: h.first_index,
             genome_length: h.genome_length as usize,
@@ -310,7 +299,7 @@ impl ChunkResult {
     /// Decodes and checks a result for `genomes` genomes of `length` genes.
     pub fn decode(
         bytes: &[u8],
-        method: Method,
+        method: Pass,
         genomes: usize,
         length: usize,
     ) -> Result<ChunkResult, WireError> {
@@ -325,7 +314,7 @@ impl ChunkResult {
         if let Some(i) = r.evaluations.iter().position(|e| !e.is_plausible()) {
             return Err(WireError::Implausible(i));
         }
-        let expected = if method == Method::Guided {
+        let expected = if method == Pass::Guide {
             genomes * length
         } else {
             0

@@ -12,9 +12,8 @@ use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::{Batch, Evaluator, InProcess};
 use lander_coordinator::ga::random_population;
 use lander_coordinator::pool::{worker_children, IpcPool, PoolOptions, DEPTH};
-use lander_coordinator::trial::env;
-use lander_protocol::stream::streams;
-use lander_protocol::{Method, StreamKey};
+use lander_model::stream::streams;
+use lander_model::{Pass, StreamKey};
 use lander_tests::{binary, signal, Iox};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -30,8 +29,8 @@ fn agree(pool: &mut IpcPool, cfg: &RunConfig, generation: u64) {
         let mut guided = genomes.clone();
         let evaluations = evaluator
             .evaluate(Batch {
-                env: env(cfg, 0),
-                method: Method::Guided,
+                env: cfg.env(0),
+                method: Pass::Guide,
                 guide: cfg.guided,
                 key,
                 max_duration: cfg.ga.max_duration,
@@ -61,6 +60,7 @@ fn an_idle_worker_takes_a_stopped_workers_queued_chunks_and_nothing_is_lost() {
         deadline: Duration::from_secs(60),
         max_respawns: 0,
         pin: false,
+        stop: Default::default(),
     };
     let mut pool = IpcPool::start(
         opts,

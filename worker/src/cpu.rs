@@ -1,8 +1,5 @@
-//! Where worker processes run: the CPUs this process may use, pinning to
-//! one of them, and the batch scheduling class. Also two clocks: the host's
-//! monotonic clock, in which workers stamp their results and the pool its
-//! requests and answers, and a thread's CPU time, which `lander bench`
-//! reports.
+//! Where a worker process runs: pinned to one CPU, in the batch scheduling
+//! class. (Which CPUs there are is `lander_protocol::host::allowed_cpus`.)
 //!
 //! Pinning and the batch class both matter on small machines. Without pinning, the scheduler places a
 //! woken worker near the coordinator that woke it, so at the start of a
@@ -13,22 +10,6 @@
 //! coordinator finishes handing out a generation before anyone computes.
 
 use std::io;
-use std::time::Duration;
-
-/// The CPUs this process may run on, in order; empty if unknown.
-pub fn allowed_cpus() -> Vec<usize> {
-    // SAFETY: a zeroed cpu_set_t is a valid empty set; sched_getaffinity
-    // writes at most size_of::<cpu_set_t>() bytes into it.
-    unsafe {
-        let mut set: libc::cpu_set_t = std::mem::zeroed();
-        if libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mut set) != 0 {
-            return Vec::new();
-        }
-        (0..libc::CPU_SETSIZE as usize)
-            .filter(|&cpu| libc::CPU_ISSET(cpu, &set))
-            .collect()
-    }
-}
 
 /// Runs the calling thread, and the threads it starts from now on, on
 /// `cpu` only. Call it first thing in `main` to pin the whole process.
@@ -63,72 +44,10 @@ pub fn run_as_batch_job() -> io::Result<()> {
     Ok(())
 }
 
-/// CPU time the calling thread has used so far; zero if the clock cannot
-/// be read. Exact to the call, unlike /proc's schedstat, which lags for a
-/// running thread.
-pub fn thread_cpu_time() -> Duration {
-    let mut t = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: clock_gettime writes one timespec into `t`.
-    if unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) } != 0 {
-        return Duration::ZERO;
-    }
-    Duration::new(t.tv_sec as u64, t.tv_nsec as u32)
-}
-
-/// The host's monotonic clock in nanoseconds: one clock for every process
-/// on the host, unlike [`std::time::Instant`], which cannot be sent to
-/// another process. Zero if the clock cannot be read.
-pub fn host_clock_ns() -> u64 {
-    let mut t = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: clock_gettime writes one timespec into `t`.
-    if unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut t) } != 0 {
-        return 0;
-    }
-    t.tv_sec as u64 * 1_000_000_000 + t.tv_nsec as u64
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_busy_thread_uses_cpu_time_and_a_sleeping_one_does_not() {
-        let start = thread_cpu_time();
-        let mut x = 0u64;
-        while thread_cpu_time() - start < Duration::from_millis(5) {
-            x = std::hint::black_box(x.wrapping_add(1));
-        }
-        let busy = thread_cpu_time();
-        assert!(busy - start >= Duration::from_millis(5));
-        std::thread::sleep(Duration::from_millis(50));
-        assert!(thread_cpu_time() - busy < Duration::from_millis(20));
-    }
-
-    #[test]
-    fn the_host_clock_moves_with_instant() {
-        let (clock, instant) = (host_clock_ns(), std::time::Instant::now());
-        std::thread::sleep(Duration::from_millis(20));
-        let (clock2, elapsed) = (host_clock_ns(), instant.elapsed());
-        let moved = Duration::from_nanos(clock2 - clock);
-        assert!(moved >= Duration::from_millis(20), "{moved:?}");
-        assert!(
-            moved.abs_diff(elapsed) < Duration::from_millis(5),
-            "{moved:?} vs {elapsed:?}"
-        );
-    }
-
-    #[test]
-    fn this_process_may_run_somewhere() {
-        let cpus = allowed_cpus();
-        assert!(!cpus.is_empty());
-        assert!(cpus.windows(2).all(|w| w[0] < w[1]), "{cpus:?}");
-    }
+    use lander_protocol::host::allowed_cpus;
 
     #[test]
     fn pinning_to_an_allowed_cpu_sticks_and_a_bad_one_is_refused() {

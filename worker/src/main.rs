@@ -1,10 +1,15 @@
 //! `lander-worker`: a worker process that flies landers for a coordinator.
+//!
+//! - [`serve`]: the loops that answer jobs, over iceoryx2 or zenoh.
+//! - [`cpu`]: where the process runs (one CPU, the batch class).
+
+mod cpu;
+mod serve;
 
 use clap::{Parser, ValueEnum};
 use lander_protocol::iox::check_run_id;
 use lander_protocol::net::NetOptions;
-use lander_worker::cpu;
-use lander_worker::serve::{self, Exit, Note};
+use serve::{Exit, Note};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
@@ -47,8 +52,8 @@ struct Args {
     #[arg(long, value_name = "N")]
     cpu: Option<usize>,
     /// iceoryx2 for a coordinator on this host, zenoh for one anywhere.
-    #[arg(long, value_enum, default_value_t = Transport::Iceoryx2)]
-    transport: Transport,
+    #[arg(long, value_enum, default_value_t = TransportArg::Iceoryx2)]
+    transport: TransportArg,
     /// zenoh: the coordinator's endpoint, such as tcp/10.0.0.5:7447.
     #[arg(long, value_name = "ENDPOINT")]
     connect: Vec<String>,
@@ -62,7 +67,7 @@ struct Args {
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-enum Transport {
+enum TransportArg {
     Iceoryx2,
     Zenoh,
 }
@@ -80,7 +85,7 @@ fn main() -> ExitCode {
         eprintln!("lander-worker: error: --run {e}");
         return ExitCode::FAILURE;
     }
-    if args.transport != Transport::Zenoh {
+    if args.transport != TransportArg::Zenoh {
         for (flag, given) in [
             ("--connect", !args.connect.is_empty()),
             ("--zenoh-config", args.zenoh_config.is_some()),
@@ -109,8 +114,8 @@ fn main() -> ExitCode {
         }
     };
     let served = match args.transport {
-        Transport::Iceoryx2 => serve::serve(&args.run, id, &note).map_err(|e| e.to_string()),
-        Transport::Zenoh => {
+        TransportArg::Iceoryx2 => serve::serve(&args.run, id, &note).map_err(|e| e.to_string()),
+        TransportArg::Zenoh => {
             if args.connect.is_empty() && args.zenoh_config.is_none() {
                 say("error: --transport zenoh needs --connect ENDPOINT (or a --zenoh-config)");
                 return ExitCode::FAILURE;

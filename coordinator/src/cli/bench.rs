@@ -2,15 +2,16 @@
 
 use super::transport::pool_options;
 use anyhow::Context;
-use clap::{Args, ValueEnum};
+use clap::Args;
 use lander_coordinator::bench::{Mode, ModeEvaluator, ModeReport, Workload};
-use lander_coordinator::config::{Approach, RunConfig};
+use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::InProcess;
 use lander_coordinator::pool::zenoh::Zenoh;
 use lander_coordinator::pool::{IpcPool, Pool, PoolOptions};
+use lander_coordinator::stop::Stop;
+use lander_model::Method;
 use lander_protocol::iox::MAX_WORKERS;
 use lander_protocol::net::{coordinator_config, NetOptions};
-use lander_protocol::Method;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -35,8 +36,9 @@ pub struct BenchArgs {
     population: Option<usize>,
     /// The GA whose evaluation is measured (Q(λ) trains, and is not a
     /// throughput of genomes).
-    #[arg(long, value_enum, default_value = "guided")]
-    method: BenchMethod,
+    #[arg(long, default_value = "guided",
+          value_parser = super::method_parser(&[Method::Ga, Method::Guided]))]
+    method: Method,
     /// GA trials stepped together, as `lander experiment --in-flight` steps
     /// them: each step evaluates one generation of each as one batch. 1
     /// measures a single trial (`lander run`), whose generations are
@@ -75,14 +77,6 @@ pub struct BenchArgs {
     /// With --stress: worker kills per second, on average.
     #[arg(long, value_name = "PER_S", default_value_t = 2.0)]
     kill_rate: f64,
-}
-
-#[derive(ValueEnum, Clone, Copy, Debug)]
-enum BenchMethod {
-    /// The general GA.
-    Ga,
-    /// The guided GA: the evolve pass, then the flight.
-    Guided,
 }
 
 #[derive(Serialize)]
@@ -124,13 +118,18 @@ fn args_for_stress(args: &BenchArgs) -> super::stress::StressArgs {
     }
 }
 
-fn pool_options_for(args: &BenchArgs, id: String, workers: usize) -> anyhow::Result<PoolOptions> {
-    let mut opts = pool_options(id, workers, Duration::from_secs(60), !args.no_pin)?;
+fn pool_options_for(
+    args: &BenchArgs,
+    id: String,
+    workers: usize,
+    stop: &Stop,
+) -> anyhow::Result<PoolOptions> {
+    let mut opts = pool_options(id, workers, Duration::from_secs(60), !args.no_pin, stop)?;
     opts.chunks_per_worker = usize::from(args.chunks_per_worker.unwrap_or(DEFAULT_CHUNKS));
     Ok(opts)
 }
 
-fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
+fn modes(args: &BenchArgs, stop: &Stop) -> anyhow::Result<Vec<Mode>> {
     let n = args.workers;
     let mut modes = Vec::new();
     for transport in &args.transports {
@@ -150,7 +149,7 @@ fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
             "iceoryx2" => {
                 for w in if n > 1 { vec![1, n] } else { vec![1] } {
                     let id = format!("bench{:08x}", rand::random::<u32>());
-                    let opts = pool_options_for(args, id, w)?;
+                    let opts = pool_options_for(args, id, w, stop)?;
                     let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("lander: {m}")))?;
                     pool.wait_for_workers(w, Duration::from_secs(20))
                         .context("waiting for the benchmark's workers")?;
@@ -162,7 +161,7 @@ fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
             }
             "zenoh" => {
                 let id = format!("bench{:08x}", rand::random::<u32>());
-                let opts = pool_options_for(args, id, n)?;
+                let opts = pool_options_for(args, id, n, stop)?;
                 let options = NetOptions {
                     listen: vec![args.listen.clone()],
                     ..NetOptions::default()
@@ -185,7 +184,7 @@ fn modes(args: &BenchArgs) -> anyhow::Result<Vec<Mode>> {
     Ok(modes)
 }
 
-pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
+pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
     anyhow::ensure!(
         (1..=MAX_WORKERS).contains(&args.workers),
         "--workers must be 1 to {MAX_WORKERS} (got {})",
@@ -196,13 +195,9 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         Some(path) => RunConfig::load(path)?,
         None => RunConfig::default(),
     };
-    let method = match args.method {
-        BenchMethod::Ga => Method::Ga,
-        BenchMethod::Guided => Method::Guided,
-    };
-    cfg.method = match method {
-        Method::Ga => Approach::Ga,
-        Method::Guided => Approach::Guided,
+    cfg.method = args.method;
+    let Some(pass) = args.method.pass() else {
+        anyhow::bail!("--method must be ga or guided");
     };
     cfg.seed = args.seed;
     let (population, generations) = if args.stress { (10_000, 60) } else { (100, 30) };
@@ -226,11 +221,11 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         args.in_flight,
         cfg.trial
     );
-    let work = Workload::new(&cfg, method, generations, usize::from(args.in_flight));
+    let work = Workload::new(&cfg, pass, generations, usize::from(args.in_flight));
     if args.stress {
-        return super::stress::stress(&args_for_stress(&args), &work);
+        return super::stress::stress(&args_for_stress(&args), &work, stop);
     }
-    let mut modes = modes(&args)?;
+    let mut modes = modes(&args, stop)?;
     anyhow::ensure!(!modes.is_empty(), "--transports named no transport");
 
     // A short warm-up, then every generation flown by every mode in turn,

@@ -6,12 +6,14 @@ use super::transport::TransportArgs;
 use anyhow::Context;
 use clap::Args;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
-use lander_coordinator::config::{Approach, RunConfig};
+use lander_coordinator::config::RunConfig;
 use lander_coordinator::experiment::outputs::{ordered, write_outputs};
 use lander_coordinator::experiment::{
     run, tasks, Experiment, ExperimentError, Progress, Store, Task,
 };
+use lander_coordinator::stop::Stop;
 use lander_coordinator::trial::Generation;
+use lander_model::Method;
 use lander_report::model::TrialRecord;
 use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
@@ -45,7 +47,7 @@ pub struct ExperimentArgs {
     transport: TransportArgs,
 }
 
-pub fn experiment(args: ExperimentArgs) -> anyhow::Result<()> {
+pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
     let mut exp = Experiment::load(&args.file)?;
     if let Some(trials) = args.trials {
         exp.trials = trials;
@@ -77,7 +79,7 @@ pub fn experiment(args: ExperimentArgs) -> anyhow::Result<()> {
             todo.len()
         ));
     }
-    let mut backend = args.transport.evaluator(args.threads, &overall)?;
+    let mut backend = args.transport.evaluator(args.threads, &overall, stop)?;
     let width = match args.transport.workers {
         0 => rayon_width(args.threads),
         n => n,
@@ -137,7 +139,7 @@ struct Bars<'a> {
 impl Progress for Bars<'_> {
     fn started(&mut self, task: Task, cfg: &RunConfig) {
         let bar = match task.method {
-            Approach::Qlearning => {
+            Method::Qlearning => {
                 let bar = self.bars.add(ProgressBar::new_spinner());
                 bar.set_style(style("{prefix:>18} training {spinner}"));
                 bar

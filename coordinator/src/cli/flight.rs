@@ -5,9 +5,9 @@
 use anyhow::{anyhow, ensure, Context};
 use clap::Args;
 use lander_coordinator::config::{ConfigError, RunConfig};
-use lander_protocol::stream::streams;
-use lander_protocol::{format_genome, parse_genome, Env, Gene, StreamKey};
-use lander_worker::{fly_traced, guide as guide_pass};
+use lander_model::stream::streams;
+use lander_model::{fly_traced, guide as guide_pass};
+use lander_model::{format_genome, parse_genome, Env, Gene, StreamKey};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 

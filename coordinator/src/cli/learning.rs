@@ -7,11 +7,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::Backend;
 use lander_coordinator::report::write_json;
-use lander_coordinator::trial::env;
-use lander_protocol::wire::TrainJob;
-use lander_protocol::EpisodeRecord;
-use lander_protocol::StreamKey;
-use lander_worker::learn::train;
+use lander_model::learn::train;
+use lander_model::EpisodeRecord;
+use lander_model::StreamKey;
+use lander_model::TrainJob;
 use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -40,7 +39,7 @@ pub fn learn(
     json: bool,
     pool: Option<Box<dyn Backend>>,
 ) -> anyhow::Result<()> {
-    let env = env(cfg, 0);
+    let env = cfg.env(0);
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let log_path = out.join("episodes.jsonl");
     let mut log = BufWriter::new(

@@ -11,6 +11,8 @@ mod stress;
 mod transport;
 
 use clap::{Parser, Subcommand};
+use lander_coordinator::stop::Stop;
+use lander_model::Method;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -44,14 +46,25 @@ enum Command {
     Router(router::RouterArgs),
 }
 
-pub fn dispatch(cli: Cli) -> anyhow::Result<()> {
+/// Runs a subcommand; those that evaluate stop when `stop` is asked.
+pub fn dispatch(cli: Cli, stop: &Stop) -> anyhow::Result<()> {
     match cli.command {
-        Command::Run(args) => run::run(args),
+        Command::Run(args) => run::run(args, stop),
         Command::Fly(args) => flight::fly(args),
         Command::Guide(args) => flight::guide(args),
-        Command::Bench(args) => bench::bench(args),
-        Command::Experiment(args) => experiment::experiment(args),
+        Command::Bench(args) => bench::bench(args, stop),
+        Command::Experiment(args) => experiment::experiment(args, stop),
         Command::Replay(args) => replay::replay(args),
         Command::Router(args) => router::router(args),
     }
+}
+
+/// A `--method` flag's parser: one of `methods`, by name, listed in the
+/// help and in the error for any other word.
+pub fn method_parser(
+    methods: &'static [Method],
+) -> impl clap::builder::TypedValueParser<Value = Method> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(methods.iter().map(|m| m.name()))
+        .try_map(|name| name.parse::<Method>())
 }

@@ -9,7 +9,7 @@ use lander_coordinator::config::RunConfig;
 use lander_coordinator::experiment::outputs::ordered;
 use lander_coordinator::experiment::{Experiment, Store};
 use lander_coordinator::replay::{best_landing, trace};
-use lander_protocol::{parse_genome, Env};
+use lander_model::{parse_genome, Env};
 use lander_report::model::Flight;
 use lander_report::plots::method_label as label;
 use lander_report::replay::{flight_html, flight_svg};

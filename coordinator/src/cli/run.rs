@@ -5,11 +5,13 @@ use super::transport::TransportArgs;
 use anyhow::{bail, Context};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use lander_coordinator::config::{Approach, RunConfig};
+use lander_coordinator::config::RunConfig;
 use lander_coordinator::report::{
     clear_run_outputs, write_json, BestRecord, GenerationLog, Summary,
 };
+use lander_coordinator::stop::Stop;
 use lander_coordinator::trial::{run_trial, Generation};
+use lander_model::Method;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -20,8 +22,8 @@ pub struct RunArgs {
     config: Option<PathBuf>,
     /// `ga` (the general GA), `guided` (with the evolve pass) or
     /// `qlearning` (the Q(λ) baseline).
-    #[arg(long, value_enum)]
-    method: Option<MethodArg>,
+    #[arg(long, value_parser = super::method_parser(&Method::ALL))]
+    method: Option<Method>,
     /// Q-learning episodes per trial (SPEC: 5000).
     #[arg(long)]
     episodes: Option<u32>,
@@ -54,30 +56,13 @@ pub struct RunArgs {
     transport: TransportArgs,
 }
 
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-pub enum MethodArg {
-    Ga,
-    Guided,
-    Qlearning,
-}
-
-impl From<MethodArg> for Approach {
-    fn from(m: MethodArg) -> Approach {
-        match m {
-            MethodArg::Ga => Approach::Ga,
-            MethodArg::Guided => Approach::Guided,
-            MethodArg::Qlearning => Approach::Qlearning,
-        }
-    }
-}
-
 impl RunArgs {
     fn config(&self) -> anyhow::Result<RunConfig> {
         let mut cfg = match &self.config {
             Some(path) => RunConfig::load(path)?,
             None => RunConfig::default(),
         };
-        cfg.method = self.method.map_or(cfg.method, Approach::from);
+        cfg.method = self.method.unwrap_or(cfg.method);
         cfg.qlearning.episodes = self.episodes.unwrap_or(cfg.qlearning.episodes);
         cfg.seed = self.seed.unwrap_or(cfg.seed);
         cfg.trial = self.trial.unwrap_or(cfg.trial);
@@ -90,7 +75,7 @@ impl RunArgs {
     }
 }
 
-pub fn run(args: RunArgs) -> anyhow::Result<()> {
+pub fn run(args: RunArgs, stop: &Stop) -> anyhow::Result<()> {
     let cfg = args.config()?;
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from("runs").join(format!(
@@ -100,13 +85,13 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
             cfg.trial
         ))
     });
-    if cfg.method == Approach::Qlearning {
-        let pool = args.transport.pool(&ProgressBar::hidden())?;
+    if cfg.method == Method::Qlearning {
+        let pool = args.transport.pool(&ProgressBar::hidden(), stop)?;
         prepare(&out)?;
         return super::learning::learn(&cfg, &out, args.json, pool);
     }
     let bar = progress_bar(cfg.ga.max_generations);
-    let mut evaluator = args.transport.evaluator(cfg.threads, &bar)?;
+    let mut evaluator = args.transport.evaluator(cfg.threads, &bar, stop)?;
     prepare(&out)?;
     let mut log = GenerationLog::create(&out)?;
     let started = Instant::now();

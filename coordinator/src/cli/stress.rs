@@ -7,6 +7,7 @@ use anyhow::Context;
 use lander_coordinator::bench::{Mode, ModeEvaluator, Workload};
 use lander_coordinator::evaluator::InProcess;
 use lander_coordinator::pool::{kill_worker_child, worker_children, IpcPool};
+use lander_coordinator::stop::Stop;
 use rand::Rng;
 use serde::Serialize;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -41,7 +42,7 @@ struct StressReport {
     results_match: bool,
 }
 
-pub fn stress(args: &StressArgs, work: &Workload) -> anyhow::Result<()> {
+pub fn stress(args: &StressArgs, work: &Workload, stop: &Stop) -> anyhow::Result<()> {
     anyhow::ensure!(
         (0.0..=MAX_KILL_RATE).contains(&args.kill_rate),
         "--kill-rate must be 0 to {MAX_KILL_RATE} kills per second (got {:?})",
@@ -53,6 +54,7 @@ pub fn stress(args: &StressArgs, work: &Workload) -> anyhow::Result<()> {
         args.workers,
         Duration::from_secs(60),
         !args.no_pin,
+        stop,
     )?;
     opts.chunks_per_worker = 16;
     opts.max_respawns = usize::MAX;
@@ -81,7 +83,7 @@ pub fn stress(args: &StressArgs, work: &Workload) -> anyhow::Result<()> {
     let expected = work.genomes() as u64;
     let r = churned.report();
     let report = StressReport {
-        method: work.method.name(),
+        method: work.method.method().name(),
         population: work.cfg.ga.population,
         generations: work.steps.len(),
         workers: args.workers,

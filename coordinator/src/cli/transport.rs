@@ -8,13 +8,14 @@ use indicatif::ProgressBar;
 use lander_coordinator::evaluator::{Backend, InProcess};
 use lander_coordinator::pool::zenoh::Zenoh;
 use lander_coordinator::pool::{IpcPool, Pool, PoolOptions, Say, DEPTH};
+use lander_coordinator::stop::Stop;
 use lander_protocol::iox::{check_run_id, MAX_WORKERS};
 use lander_protocol::net::{coordinator_config, strangers_warning, NetOptions};
 use std::path::PathBuf;
 use std::time::Duration;
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Transport {
+pub enum TransportArg {
     /// Shared memory, for workers on this host.
     Iceoryx2,
     /// The network, for workers on any host.
@@ -45,8 +46,8 @@ pub struct TransportArgs {
     #[arg(long, value_name = "SECS", default_value_t = 30.0)]
     deadline: f64,
     /// How workers are reached: iceoryx2 on this host, zenoh from any host.
-    #[arg(long, value_enum, default_value_t = Transport::Iceoryx2)]
-    transport: Transport,
+    #[arg(long, value_enum, default_value_t = TransportArg::Iceoryx2)]
+    transport: TransportArg,
     /// zenoh: where to listen for workers, such as tcp/0.0.0.0:7447
     /// [default: tcp/127.0.0.1:7447].
     #[arg(long, value_name = "ENDPOINT")]
@@ -68,15 +69,20 @@ pub struct TransportArgs {
 impl TransportArgs {
     /// The evaluator the flags ask for: in-process, spawned workers, or
     /// attached ones.
-    pub fn evaluator(&self, threads: usize, bar: &ProgressBar) -> anyhow::Result<Box<dyn Backend>> {
-        Ok(match self.pool(bar)? {
+    pub fn evaluator(
+        &self,
+        threads: usize,
+        bar: &ProgressBar,
+        stop: &Stop,
+    ) -> anyhow::Result<Box<dyn Backend>> {
+        Ok(match self.pool(bar, stop)? {
             Some(pool) => pool,
-            None => Box::new(InProcess::new(threads)?),
+            None => Box::new(InProcess::new(threads)?.stopping_on(stop.clone())),
         })
     }
 
     /// The worker pool the flags ask for, or `None` for in-process work.
-    pub fn pool(&self, bar: &ProgressBar) -> anyhow::Result<Option<Box<dyn Backend>>> {
+    pub fn pool(&self, bar: &ProgressBar, stop: &Stop) -> anyhow::Result<Option<Box<dyn Backend>>> {
         anyhow::ensure!(
             self.workers <= MAX_WORKERS,
             "--workers must be at most {MAX_WORKERS} (got {})",
@@ -87,7 +93,7 @@ impl TransportArgs {
             "--deadline must be more than 0 and at most {MAX_DEADLINE_S} seconds (got {:?})",
             self.deadline
         );
-        if self.transport != Transport::Zenoh {
+        if self.transport != TransportArg::Zenoh {
             for (flag, given) in [
                 ("--listen", !self.listen.is_empty()),
                 ("--zenoh-config", self.zenoh_config.is_some()),
@@ -102,7 +108,7 @@ impl TransportArgs {
                 "--run-id needs --workers or --attach"
             );
             anyhow::ensure!(
-                self.transport == Transport::Iceoryx2,
+                self.transport == TransportArg::Iceoryx2,
                 "--transport zenoh needs --workers N or --attach; without them evaluation is in-process"
             );
             return Ok(None);
@@ -119,15 +125,15 @@ impl TransportArgs {
             None => format!("{:08x}", rand::random::<u32>()),
         };
         let deadline = Duration::from_secs_f64(self.deadline);
-        let opts = pool_options(run_id, self.workers, deadline, !self.no_pin)?;
+        let opts = pool_options(run_id, self.workers, deadline, !self.no_pin, stop)?;
         let bar = bar.clone();
         let say = Box::new(move |msg: &str| bar.suspend(|| eprintln!("lander: {msg}")));
         if self.attach {
             say(&format!("run id {}", opts.run_id));
         }
         Ok(Some(match self.transport {
-            Transport::Iceoryx2 => Box::new(IpcPool::start(opts, say)?),
-            Transport::Zenoh => self.zenoh_pool(opts, say)?,
+            TransportArg::Iceoryx2 => Box::new(IpcPool::start(opts, say)?),
+            TransportArg::Zenoh => self.zenoh_pool(opts, say)?,
         }))
     }
 
@@ -157,12 +163,14 @@ impl TransportArgs {
 }
 
 /// A pool that spawns `workers` copies of the `lander-worker` beside this
-/// executable (0: workers attach themselves), pinned to a CPU each if `pin`.
+/// executable (0: workers attach themselves), pinned to a CPU each if
+/// `pin`, that ends the run when `stop` is asked.
 pub fn pool_options(
     run_id: String,
     workers: usize,
     deadline: Duration,
     pin: bool,
+    stop: &Stop,
 ) -> anyhow::Result<PoolOptions> {
     let worker_exe = std::env::current_exe()
         .context("finding this executable")?
@@ -176,5 +184,6 @@ pub fn pool_options(
         deadline,
         max_respawns: 3 * workers.max(1),
         pin,
+        stop: stop.clone(),
     })
 }

@@ -1,10 +1,11 @@
 //! An experiment file: which methods, how many paired trials, the seed, and
 //! the parameters every trial shares (the same sections as a run's TOML).
 
-use crate::config::{Approach, ConfigError, RunConfig};
+use crate::config::{ConfigError, RunConfig};
 use crate::ga::GaParams;
-use lander_protocol::check::{check, ParamError};
-use lander_protocol::{GuideParams, LearnParams, Scoring, World};
+use lander_model::check::{check, ParamError};
+use lander_model::Method;
+use lander_model::{GuideParams, LearnParams, Scoring, World};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -22,7 +23,7 @@ pub struct Experiment {
     /// Trials per method, numbered from 1.
     pub trials: u64,
     /// Any of `ga`, `guided` and `qlearning`, each at most once.
-    pub methods: Vec<Approach>,
+    pub methods: Vec<Method>,
     /// The trial whose fitness per generation is plotted (the paper's
     /// Figure 4 shows its 13th); the last trial when it is beyond the count.
     pub figure_trial: u64,
@@ -40,7 +41,7 @@ impl Default for Experiment {
             name: "experiment".into(),
             seed: 1,
             trials: 25,
-            methods: vec![Approach::Ga, Approach::Guided, Approach::Qlearning],
+            methods: vec![Method::Ga, Method::Guided, Method::Qlearning],
             figure_trial: 13,
             world: run.world,
             scoring: run.scoring,
@@ -104,11 +105,11 @@ impl Experiment {
             }
         }
         check("figure_trial", self.figure_trial >= 1, "must be at least 1")?;
-        self.config(Approach::Guided, 1).validate()
+        self.config(Method::Guided, 1).validate()
     }
 
     /// The run configuration of one trial of one method.
-    pub fn config(&self, method: Approach, trial: u64) -> RunConfig {
+    pub fn config(&self, method: Method, trial: u64) -> RunConfig {
         RunConfig {
             method,
             seed: self.seed,
@@ -145,7 +146,7 @@ mod tests {
         assert_eq!(exp.trials, 25);
         assert_eq!(
             exp.methods,
-            vec![Approach::Ga, Approach::Guided, Approach::Qlearning]
+            vec![Method::Ga, Method::Guided, Method::Qlearning]
         );
         assert_eq!(exp.shown_trial(), 13);
         // The paper's parameters are the defaults.
@@ -159,7 +160,7 @@ mod tests {
     #[test]
     fn overrides_reach_every_trial() {
         let exp = parse("trials = 3\nmethods = [\"guided\"]\n[ga]\npopulation = 20\n").unwrap();
-        let cfg = exp.config(Approach::Guided, 2);
+        let cfg = exp.config(Method::Guided, 2);
         assert_eq!((cfg.trial, cfg.ga.population), (2, 20));
         assert_eq!(exp.shown_trial(), 3);
     }

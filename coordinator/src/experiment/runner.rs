@@ -3,11 +3,12 @@
 //! even with small populations; then the Q(λ) trials, one job each.
 
 use super::file::Experiment;
-use crate::config::{Approach, RunConfig};
+use crate::config::RunConfig;
 use crate::evaluator::{Backend, EvalError};
-use crate::trial::{env, Generation, TrialError, TrialResult, TrialRun};
-use lander_protocol::wire::TrainJob;
-use lander_protocol::{format_genome, Evaluation, StreamKey, TrainResult};
+use crate::trial::{Generation, TrialError, TrialResult, TrialRun};
+use lander_model::Method;
+use lander_model::TrainJob;
+use lander_model::{format_genome, Evaluation, StreamKey, TrainResult};
 use lander_report::model::{BestLander, FitnessPoint, Learning, TrialRecord};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -15,13 +16,13 @@ use std::time::Instant;
 /// One trial of one method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Task {
-    pub method: Approach,
+    pub method: Method,
     pub trial: u64,
 }
 
 impl Task {
     pub fn of(record: &TrialRecord) -> Option<Task> {
-        let method = [Approach::Ga, Approach::Guided, Approach::Qlearning]
+        let method = [Method::Ga, Method::Guided, Method::Qlearning]
             .into_iter()
             .find(|m| m.name() == record.method)?;
         Some(Task {
@@ -71,7 +72,7 @@ pub fn run(
     progress: &mut dyn Progress,
 ) -> Result<(), ExperimentError> {
     let (learning, evolving): (Vec<Task>, Vec<Task>) =
-        tasks.iter().partition(|t| t.method == Approach::Qlearning);
+        tasks.iter().partition(|t| t.method == Method::Qlearning);
     evolve(exp, &evolving, backend, in_flight.max(1), progress)?;
     learn(exp, &learning, backend, progress)
 }
@@ -159,7 +160,7 @@ fn learn(
     let jobs: Vec<TrainJob> = configs
         .iter()
         .map(|cfg| TrainJob {
-            env: env(cfg, 0),
+            env: cfg.env(0),
             guide: cfg.guided,
             learn: cfg.qlearning,
             key: StreamKey::new(cfg.seed, cfg.trial, 0, 0),
@@ -196,7 +197,7 @@ pub fn evolution_record(
         seed: cfg.seed,
         trial: cfg.trial,
         x0: result.x0,
-        pad_x: env(cfg, 0).pad_x,
+        pad_x: cfg.env(0).pad_x,
         landed: result.landed,
         generations: Some(result.generations),
         restarts: Some(result.restarts),

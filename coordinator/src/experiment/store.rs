@@ -176,7 +176,7 @@ fn first_difference(a: &serde_json::Value, b: &serde_json::Value, at: &str) -> O
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::Approach;
+    use lander_model::Method;
 
     fn record(method: &str, trial: u64) -> TrialRecord {
         TrialRecord {
@@ -225,7 +225,7 @@ mod tests {
         let tasks: Vec<Task> = found.iter().filter_map(Task::of).collect();
         assert_eq!(
             tasks,
-            [Approach::Ga, Approach::Guided].map(|method| Task { method, trial: 2 })
+            [Method::Ga, Method::Guided].map(|method| Task { method, trial: 2 })
         );
         assert!(!dir.join("trials/ga-00003.json.tmp").exists());
         std::fs::remove_dir_all(&dir).unwrap();

@@ -10,9 +10,9 @@ use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
+use lander_protocol::host::host_clock_ns;
 use lander_protocol::iox::{self, IpcError, RunNames, JOB_EVENT, MAX_QUEUED, SHUTDOWN_EVENT};
 use lander_protocol::wire::{JobHeader, ResultHeader, WireGene, WorkerAnnounce};
-use lander_worker::cpu::host_clock_ns;
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 

@@ -18,12 +18,13 @@ mod spawn;
 pub mod zenoh;
 
 use crate::evaluator::{Batch, EvalError, Evaluator, Trainer};
+use crate::stop::Stop;
+use lander_model::{Action, Evaluation, TrainJob, TrainResult};
+use lander_protocol::host::host_clock_ns;
 use lander_protocol::wire::{
-    decode_training, ChunkResult, JobHeader, ResultHeader, Status, TrainJob, WireError, WireGene,
+    decode_training, ChunkResult, JobHeader, ResultHeader, Status, WireError, WireGene,
     KIND_EVALUATE, KIND_TRAIN, PROTOCOL_VERSION,
 };
-use lander_protocol::{Action, Evaluation, TrainResult};
-use lander_worker::cpu::host_clock_ns;
 use spawn::Children;
 pub use spawn::{kill_worker_child, worker_children};
 use std::collections::{HashSet, VecDeque};
@@ -181,8 +182,10 @@ pub struct PoolOptions {
     /// Spawned workers replaced after dying, at most.
     pub max_respawns: usize,
     /// Pin each spawned worker to a CPU of its own, when there are at
-    /// least as many CPUs as workers ([`lander_worker::cpu`] says why).
+    /// least as many CPUs as workers (`worker/src/cpu.rs` says why).
     pub pin: bool,
+    /// Asked to stop, the pool ends the run at its next look.
+    pub stop: Stop,
 }
 
 /// Messages for the user, such as "waiting for workers".
@@ -256,7 +259,7 @@ impl<T: Transport> Pool<T> {
         let end = Instant::now() + patience;
         let mut todo = VecDeque::new();
         while self.links.len() < n {
-            if crate::stop::asked() {
+            if self.opts.stop.asked() {
                 return Err(EvalError::Interrupted);
             }
             if Instant::now() >= end {
@@ -411,7 +414,7 @@ impl<T: Transport> Pool<T> {
 /// The CPUs to pin `opts.spawn` workers to: one each, or none at all when
 /// pinning is off or there are fewer CPUs than workers.
 fn cpus_for(opts: &PoolOptions) -> Vec<usize> {
-    let cpus = lander_worker::cpu::allowed_cpus();
+    let cpus = lander_protocol::host::allowed_cpus();
     if !opts.pin || opts.spawn == 0 || opts.spawn > cpus.len() {
         return Vec::new();
     }
@@ -470,7 +473,7 @@ impl<T: Transport> Pool<T> {
         let mut answered = vec![false; jobs.len()];
         let mut remaining = jobs.len();
         while remaining > 0 {
-            if crate::stop::asked() {
+            if self.opts.stop.asked() {
                 return Err(EvalError::Interrupted);
             }
             self.accept()?;
@@ -962,6 +965,7 @@ mod tests {
                 deadline: Duration::from_secs(1),
                 max_respawns: 0,
                 pin: false,
+                stop: Stop::new(),
             };
             let mut pool = Pool::with_transport(Nowhere, opts, say).unwrap();
             pool.links = links;
@@ -1119,8 +1123,8 @@ mod tests {
 
     mod answers {
         use super::super::*;
+        use lander_model::{Evaluation, Outcome, State};
         use lander_protocol::wire::ChunkResult;
-        use lander_protocol::{Evaluation, Outcome, State};
 
         fn header(version: u32, status: Status, job_id: u64) -> ResultHeader {
             ResultHeader {
@@ -1244,6 +1248,7 @@ mod tests {
                 deadline: Duration::from_secs(1),
                 max_respawns: 0,
                 pin: false,
+                stop: Stop::new(),
             };
             let mut pool =
                 Pool::with_transport(OtherBuild { pid_file }, opts, Box::new(|_| ())).unwrap();

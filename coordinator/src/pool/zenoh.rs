@@ -8,9 +8,9 @@
 use super::{check, Answer, Arrival, ChunkTiming, Transport, WorkerLink, DEPTH};
 use crate::evaluator::EvalError;
 use lander_protocol::envelope::{decode_result, encode_job};
+use lander_protocol::host::host_clock_ns;
 use lander_protocol::net::{self, NetError, RunKeys};
 use lander_protocol::wire::{JobHeader, WireGene};
-use lander_worker::cpu::host_clock_ns;
 use std::collections::VecDeque;
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
 use std::sync::{Arc, Mutex};

@@ -1,13 +1,13 @@
 use super::*;
 use crate::wire::{Job, KIND_EVALUATE};
-use crate::{Env, GuideParams, Method, StreamKey};
+use lander_model::{Env, GuideParams, Pass, StreamKey};
 use proptest::prelude::*;
 
 fn job() -> (JobHeader, Vec<WireGene>) {
     let header = JobHeader {
         version: PROTOCOL_VERSION,
         kind: KIND_EVALUATE,
-        method: Method::Guided.code(),
+        method: Pass::Guide.code(),
         job_id: 7,
         key: StreamKey::new(1, 2, 0, 3),
         first_index: 10,

@@ -1,12 +1,12 @@
 //! The checks on jobs and results refuse everything they should.
 
 use super::*;
-use crate::{Outcome, State};
+use lander_model::{Outcome, State};
 
 fn header(genomes: u32, length: u32) -> JobHeader {
     JobHeader {
         version: PROTOCOL_VERSION,
-        method: Method::Guided.code(),
+        method: Pass::Guide.code(),
         genomes,
         genome_length: length,
         max_duration: 30,
@@ -45,7 +45,7 @@ fn bad_jobs_are_refused() {
     );
     let mut h = header(1, 2);
     h.method = 9;
-    assert_eq!(Job::from_wire(&h, &genes), Err(WireError::Method(9)));
+    assert_eq!(Job::from_wire(&h, &genes), Err(WireError::Pass(9)));
     assert!(matches!(
         Job::from_wire(&header(2, 2), &genes),
         Err(WireError::Length { .. })
@@ -91,19 +91,19 @@ fn results_round_trip_and_bad_ones_are_refused() {
     };
     let bytes = good.encode();
     assert_eq!(
-        ChunkResult::decode(&bytes, Method::Guided, 2, 2),
+        ChunkResult::decode(&bytes, Pass::Guide, 2, 2),
         Ok(good.clone())
     );
     assert!(matches!(
-        ChunkResult::decode(&bytes, Method::Guided, 3, 2),
+        ChunkResult::decode(&bytes, Pass::Guide, 3, 2),
         Err(WireError::Count { .. })
     ));
     assert!(matches!(
-        ChunkResult::decode(&bytes, Method::Ga, 2, 2),
+        ChunkResult::decode(&bytes, Pass::Fly, 2, 2),
         Err(WireError::Length { .. })
     ));
     assert!(matches!(
-        ChunkResult::decode(&bytes[..bytes.len() - 3], Method::Guided, 2, 2),
+        ChunkResult::decode(&bytes[..bytes.len() - 3], Pass::Guide, 2, 2),
         Err(WireError::Decode(_))
     ));
 
@@ -112,7 +112,7 @@ fn results_round_trip_and_bad_ones_are_refused() {
         actions: vec![0; 4],
     };
     assert_eq!(
-        ChunkResult::decode(&nan.encode(), Method::Guided, 2, 2),
+        ChunkResult::decode(&nan.encode(), Pass::Guide, 2, 2),
         Err(WireError::Implausible(1))
     );
     let action = ChunkResult {
@@ -120,7 +120,7 @@ fn results_round_trip_and_bad_ones_are_refused() {
         actions: vec![0, 1, 7, 3],
     };
     assert!(matches!(
-        ChunkResult::decode(&action.encode(), Method::Guided, 2, 2),
+        ChunkResult::decode(&action.encode(), Pass::Guide, 2, 2),
         Err(WireError::Action { index: 2, .. })
     ));
     let mut last = vec![3; 5000];
@@ -130,7 +130,7 @@ fn results_round_trip_and_bad_ones_are_refused() {
         actions: last,
     };
     assert_eq!(
-        ChunkResult::decode(&late.encode(), Method::Guided, 100, 50),
+        ChunkResult::decode(&late.encode(), Pass::Guide, 100, 50),
         Err(WireError::Action {
             index: 4999,
             action: 4
@@ -163,7 +163,7 @@ fn training_jobs_carry_no_genes_and_sane_parameters() {
 
 #[test]
 fn training_results_are_checked() {
-    use crate::{EpisodeRecord, Training};
+    use lander_model::{EpisodeRecord, Training};
     let record = |episode, safe| EpisodeRecord {
         episode,
         reward: 1.0,
@@ -216,6 +216,6 @@ proptest! {
             simulated_ticks: u64::from(ticks - n) + extra,
         };
         let r = ChunkResult { evaluations: vec![e], actions };
-        prop_assert_eq!(ChunkResult::decode(&r.encode(), Method::Guided, 1, 7), Ok(r));
+        prop_assert_eq!(ChunkResult::decode(&r.encode(), Pass::Guide, 1, 7), Ok(r));
     }
 }

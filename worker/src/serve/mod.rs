@@ -5,11 +5,12 @@
 pub mod iceoryx;
 pub mod zenoh;
 
-use crate::cpu::host_clock_ns;
-use crate::evaluate::run_job;
-use crate::learn::run_training;
+use lander_model::learn::run_training;
+use lander_model::{evaluate, Pass};
+use lander_protocol::host::host_clock_ns;
 use lander_protocol::wire::{
-    self, Job, JobHeader, ResultHeader, Status, WireError, WireGene, PROTOCOL_VERSION,
+    self, ChunkResult, EvalJob, Job, JobHeader, ResultHeader, Status, WireError, WireGene,
+    PROTOCOL_VERSION,
 };
 
 pub use iceoryx::serve;
@@ -67,4 +68,26 @@ pub fn answer(
         finished_ns: host_clock_ns(),
     };
     (result, body)
+}
+
+/// Evaluates every genome of a checked job, writing back the actions the
+/// guided pass chose.
+fn run_job(job: EvalJob) -> ChunkResult {
+    let mut genes = job.genes;
+    let evaluations = genes
+        .chunks_mut(job.genome_length)
+        .enumerate()
+        .map(|(i, g)| {
+            let index = job.first_index + i as u64;
+            evaluate(&job.env, job.pass, &job.guide, job.key, index, g)
+        })
+        .collect();
+    let actions = match job.pass {
+        Pass::Guide => genes.iter().map(|g| g.action.index()).collect(),
+        Pass::Fly => Vec::new(),
+    };
+    ChunkResult {
+        evaluations,
+        actions,
+    }
 }

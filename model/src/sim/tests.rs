@@ -2,8 +2,8 @@
 //! the reference bit for bit.
 
 use super::*;
+use crate::GuideParams;
 use crate::{reference, score};
-use lander_protocol::GuideParams;
 use proptest::prelude::*;
 
 const G: f64 = 1.63 / 60.0;

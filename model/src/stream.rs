@@ -5,6 +5,7 @@
 //! says what the draws are for. Results therefore never depend on which
 //! process or thread made them, nor on the order in which work was done.
 
+#[cfg(feature = "zero-copy")]
 use iceoryx2::prelude::ZeroCopySend;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -13,10 +14,12 @@ use serde::{Deserialize, Serialize};
 /// Where in a run a set of draws belongs. `generation` counts from 1 within
 /// a restart; the environment's draws use generation 0.
 #[repr(C)]
-#[derive(
-    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize, ZeroCopySend,
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(
+    feature = "zero-copy",
+    derive(ZeroCopySend),
+    type_name("lander::StreamKey")
 )]
-#[type_name("lander::StreamKey")]
 pub struct StreamKey {
     pub seed: u64,
     pub trial: u64,

@@ -5,11 +5,9 @@
 //! `cargo bench -p lander-worker --bench flight`
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
-use lander_protocol::{
-    Action, Env, Gene, GuideParams, LearnParams, Method, Scoring, StreamKey, World,
-};
-use lander_worker::learn::train;
-use lander_worker::{evaluate, fly, reference};
+use lander_model::learn::train;
+use lander_model::{evaluate, fly, reference};
+use lander_model::{Action, Env, Gene, GuideParams, LearnParams, Pass, Scoring, StreamKey, World};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
@@ -73,8 +71,8 @@ fn guided_generation(c: &mut Criterion) {
     let key = StreamKey::new(1, 1, 0, 1);
     let mut group = c.benchmark_group("generation");
     group.throughput(Throughput::Elements(work.len() as u64));
-    for method in [Method::Guided, Method::Ga] {
-        group.bench_function(method.name(), |b| {
+    for method in [Pass::Guide, Pass::Fly] {
+        group.bench_function(method.method().name(), |b| {
             b.iter_batched_ref(
                 || work.clone(),
                 |batch| {

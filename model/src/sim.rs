@@ -15,7 +15,7 @@
 //!   `min(y + offset)` exactly.
 
 use crate::score;
-use lander_protocol::{Action, Env, Gene, Outcome, State};
+use crate::{Action, Env, Gene, Outcome, State};
 use std::f64::consts::{PI, TAU};
 
 /// The hull in model units, in the original's order.

@@ -2,15 +2,20 @@
 //! defaults. Each struct is plain data and deserialises from a TOML section
 //! in which every key is optional and unknown keys are errors.
 
-use crate::check::{check, finite, positive, probability, ParamError};
+use crate::check::{at_most, check, finite, non_negative, positive, probability, ParamError};
+#[cfg(feature = "zero-copy")]
 use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
 /// The world and the lander's physics (SPEC §1).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ZeroCopySend)]
-#[type_name("lander::World")]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(
+    feature = "zero-copy",
+    derive(ZeroCopySend),
+    type_name("lander::World")
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct World {
     /// Width `W` in pixels; x wraps at both edges.
@@ -57,6 +62,54 @@ impl Default for World {
 }
 
 impl World {
+    /// Checks every field, naming the first out of range; the lander must start above the ground.
+    pub fn check(&self) -> Result<(), ParamError> {
+        let w = self;
+        positive("world.width", w.width)?;
+        positive("world.height", w.height)?;
+        at_most("world.width", w.width, 1e6)?;
+        at_most("world.height", w.height, 1e6)?;
+        finite("world.gravity", w.gravity)?;
+        finite("world.thrust", w.thrust)?;
+        positive("world.mass", w.mass)?;
+        positive("world.ticks_per_second", w.ticks_per_second)?;
+        finite("world.rotation_step", w.rotation_step)?;
+        finite("world.start_drop", w.start_drop)?;
+        finite("world.ground_y", w.ground_y)?;
+        positive("world.hull_scale", w.hull_scale)?;
+        non_negative("world.pad_margin", w.pad_margin)?;
+        check(
+            "world.pad_margin",
+            2.0 * w.pad_margin < w.width,
+            "must be less than half of world.width",
+        )?;
+        check(
+            "world.max_ticks",
+            (1..=1_000_000).contains(&w.max_ticks),
+            "must be 1 to 1,000,000",
+        )?;
+        // Upside down (rot = π) the hull's top, its largest model y, is
+        // lowest; a lander starting with it under the ground would touch
+        // down on the first tick, to numbers that mean nothing.
+        let top = crate::sim::HULL
+            .iter()
+            .map(|p| p.1)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let least = w.ground_y + w.start_drop + w.hull_scale * top;
+        check(
+            "world.height",
+            w.height > least,
+            &format!(
+                "must be more than {least:?}, so that the lander, starting world.start_drop \
+                 below the top, is above world.ground_y (got {:?})",
+                w.height
+            ),
+        )?;
+        Ok(())
+    }
+}
+
+impl World {
     /// Velocity change per thrust tick, `a = (350/60)/100` by default.
     pub fn thrust_per_tick(&self) -> f64 {
         (self.thrust / self.ticks_per_second) / self.mass
@@ -74,8 +127,12 @@ impl World {
 
 /// The fitness of eq. 1 and the safe-landing thresholds (SPEC §2).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ZeroCopySend)]
-#[type_name("lander::Scoring")]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(
+    feature = "zero-copy",
+    derive(ZeroCopySend),
+    type_name("lander::Scoring")
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct Scoring {
     pub w1: f64,
@@ -102,11 +159,31 @@ impl Default for Scoring {
     }
 }
 
+impl Scoring {
+    /// Checks every field, naming the first out of range.
+    pub fn check(&self) -> Result<(), ParamError> {
+        let s = self;
+        // Bounded so that fitness and R stay finite for any flight.
+        at_most("scoring.w1", s.w1.abs(), 1e12)?;
+        at_most("scoring.w2", s.w2.abs(), 1e12)?;
+        at_most("scoring.w3", s.w3.abs(), 1e12)?;
+        at_most("scoring.big_number", s.big_number.abs(), 1e15)?;
+        non_negative("scoring.safe_distance", s.safe_distance)?;
+        non_negative("scoring.safe_speed", s.safe_speed)?;
+        non_negative("scoring.safe_rotation", s.safe_rotation)?;
+        Ok(())
+    }
+}
+
 /// The guided evolve pass: ε and the reinforcement function R of eq. 3
 /// (SPEC §4).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ZeroCopySend)]
-#[type_name("lander::GuideParams")]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(
+    feature = "zero-copy",
+    derive(ZeroCopySend),
+    type_name("lander::GuideParams")
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct GuideParams {
     /// Probability of keeping a gene's action when R prefers another.
@@ -131,10 +208,28 @@ impl Default for GuideParams {
     }
 }
 
+impl GuideParams {
+    /// Checks every field, naming the first out of range.
+    pub fn check(&self) -> Result<(), ParamError> {
+        let g = self;
+        probability("guided.epsilon", g.epsilon)?;
+        positive("guided.w_y", g.w_y)?;
+        finite("guided.h1", g.h1)?;
+        finite("guided.r", g.r)?;
+        finite("guided.h2", g.h2)?;
+        finite("guided.w_t", g.w_t)?;
+        Ok(())
+    }
+}
+
 /// The Q(λ) baseline (SPEC §5).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ZeroCopySend)]
-#[type_name("lander::LearnParams")]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(
+    feature = "zero-copy",
+    derive(ZeroCopySend),
+    type_name("lander::LearnParams")
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct LearnParams {
     /// Ticks each decision's action is held for.
@@ -218,8 +313,8 @@ impl Default for LearnParams {
 
 /// One flight's environment: the world, the start column and the pad.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, ZeroCopySend)]
-#[type_name("lander::Env")]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "zero-copy", derive(ZeroCopySend), type_name("lander::Env"))]
 pub struct Env {
     pub world: World,
     pub scoring: Scoring,
@@ -227,35 +322,100 @@ pub struct Env {
     pub pad_x: f64,
 }
 
-/// How a population is evaluated.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+/// What a run does: evolve with the general or the guided GA, or learn
+/// with the Q(λ) baseline. Records, files and the command line all name a
+/// method by [`Method::name`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
-    /// The general GA: fly and score.
     Ga,
-    /// The guided GA: the evolve pass, then fly and score.
     Guided,
+    Qlearning,
 }
 
 impl Method {
-    /// The method's number on the wire.
-    pub fn code(self) -> u32 {
-        match self {
-            Method::Ga => 0,
-            Method::Guided => 1,
-        }
-    }
+    /// Every method, in the order tables and plots list them.
+    pub const ALL: [Method; 3] = [Method::Ga, Method::Guided, Method::Qlearning];
 
-    pub fn from_code(code: u32) -> Option<Method> {
-        [Method::Ga, Method::Guided]
-            .into_iter()
-            .find(|m| m.code() == code)
-    }
-
+    /// The name in files and on the command line.
     pub fn name(self) -> &'static str {
         match self {
             Method::Ga => "ga",
             Method::Guided => "guided",
+            Method::Qlearning => "qlearning",
+        }
+    }
+
+    /// The name on plots and in tables.
+    pub fn label(self) -> &'static str {
+        match self {
+            Method::Ga => "general GA",
+            Method::Guided => "guided GA",
+            Method::Qlearning => "Q(λ)",
+        }
+    }
+
+    /// How a GA method evaluates its genomes; `None` for Q(λ).
+    pub fn pass(self) -> Option<Pass> {
+        match self {
+            Method::Ga => Some(Pass::Fly),
+            Method::Guided => Some(Pass::Guide),
+            Method::Qlearning => None,
+        }
+    }
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Method {
+    type Err = ParamError;
+
+    fn from_str(s: &str) -> Result<Method, ParamError> {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| ParamError {
+                field: "method",
+                problem: format!("must be ga, guided or qlearning (got {s:?})"),
+            })
+    }
+}
+
+/// What a genome goes through when a GA method evaluates it: a job
+/// carries its pass, and [`crate::evaluate`] runs it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Pass {
+    /// The general GA's: fly the genome as it is, and score the flight.
+    Fly,
+    /// The guided GA's: the evolve pass, then fly on and score.
+    Guide,
+}
+
+impl Pass {
+    /// The pass's number on the wire.
+    pub fn code(self) -> u32 {
+        match self {
+            Pass::Fly => 0,
+            Pass::Guide => 1,
+        }
+    }
+
+    pub fn from_code(code: u32) -> Option<Pass> {
+        [Pass::Fly, Pass::Guide]
+            .into_iter()
+            .find(|m| m.code() == code)
+    }
+
+    /// The GA method this pass is the evaluation of.
+    pub fn method(self) -> Method {
+        match self {
+            Pass::Fly => Method::Ga,
+            Pass::Guide => Method::Guided,
         }
     }
 }

@@ -1,8 +1,8 @@
 //! The fitness of a finished flight (eq. 1, SPEC §2) and the reinforcement
 //! function R that scores a state in mid-air (eq. 3, SPEC §4).
 
-use lander_protocol::State;
-use lander_protocol::{Env, GuideParams};
+use crate::State;
+use crate::{Env, GuideParams};
 
 /// `1 / (|rot| + 1)`, shared by eq. 1 and eq. 3.
 pub fn rot_fit(rot: f64) -> f64 {

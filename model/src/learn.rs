@@ -8,12 +8,9 @@
 use crate::qlearn::{QLambda, QParams, Task};
 use crate::score::{is_safe, reinforcement};
 use crate::sim::{Flight, Physics};
+use crate::stream::streams;
 use crate::tiles::TileCoder;
-use lander_protocol::stream::streams;
-use lander_protocol::wire::TrainJob;
-use lander_protocol::{
-    Env, EpisodeRecord, GuideParams, LearnParams, StreamKey, TrainResult, Training,
-};
+use crate::{Env, EpisodeRecord, GuideParams, LearnParams, StreamKey, TrainResult, Training};
 
 pub struct LanderTask {
     env: Env,
@@ -71,8 +68,7 @@ impl Task for LanderTask {
 
     fn step(&mut self, action: u8) -> (f64, bool) {
         let before = self.r();
-        let action =
-            lander_protocol::Action::from_index(action).unwrap_or(lander_protocol::Action::Drift);
+        let action = crate::Action::from_index(action).unwrap_or(crate::Action::Drift);
         self.flight
             .run(&self.physics, action, self.learn.decision_ticks);
         let reward = self.r() - before;
@@ -134,6 +130,16 @@ pub fn train(
         first_safe,
         landing_rate_last_100: landed as f64 / recent.len().max(1) as f64,
     }
+}
+
+/// A whole Q(λ) trial: everything [`run_training`] needs, so that any
+/// thread or worker can run it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrainJob {
+    pub env: Env,
+    pub guide: GuideParams,
+    pub learn: LearnParams,
+    pub key: StreamKey,
 }
 
 /// A whole training trial as a worker serves it: the records and summary.

@@ -4,7 +4,7 @@
 
 use crate::score::{is_safe, reinforcement};
 use crate::sim::{Flight, Physics};
-use lander_protocol::{Action, Env, Gene, GuideParams};
+use crate::{Action, Env, Gene, GuideParams};
 use rand::Rng;
 
 /// Improves `genes` in place. Only actions change, never durations or the
@@ -66,7 +66,7 @@ mod tests {
     use super::*;
     use crate::evaluate::evaluate;
     use crate::sim::fly;
-    use lander_protocol::{Method, StreamKey};
+    use crate::{Pass, StreamKey};
     use proptest::prelude::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -144,9 +144,9 @@ mod tests {
             let e = env(x0, pad_x);
             let mut genes = genome.clone();
             let key = StreamKey::new(seed, 0, 0, 1);
-            let ev = evaluate(&e, Method::Guided, &GuideParams::default(), key, index, &mut genes);
+            let ev = evaluate(&e, Pass::Guide, &GuideParams::default(), key, index, &mut genes);
             prop_assert_eq!(ev.outcome, fly(&e, &genes));
-            let again = guide(&e, &GuideParams::default(), &genome, &mut key.rng(lander_protocol::stream::streams::guide(index)));
+            let again = guide(&e, &GuideParams::default(), &genome, &mut key.rng(crate::stream::streams::guide(index)));
             prop_assert_eq!(again, genes);
         }
     }

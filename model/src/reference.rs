@@ -6,8 +6,8 @@
 
 use crate::score;
 use crate::sim::HULL;
-use lander_protocol::{Action, Env, Gene};
-use lander_protocol::{Outcome, State};
+use crate::{Action, Env, Gene};
+use crate::{Outcome, State};
 use std::f64::consts::{PI, TAU};
 
 /// Flies `genes` then drifts to touchdown, like [`crate::fly`].
