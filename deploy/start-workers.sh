@@ -100,7 +100,7 @@ elif [[ -x $here/../target/release/lander-worker ]]; then
 elif worker=$(command -v lander-worker); then
     :
 else
-    echo "$me: error: no lander-worker: set LANDER_WORKER, build it with 'cargo build --release', or put it on PATH" >&2
+    echo "$me: error: no lander-worker: set LANDER_WORKER, build it with 'cargo build --workspace --release', or put it on PATH" >&2
     exit 2
 fi
 [[ -x $worker ]] || {

@@ -2,7 +2,7 @@
 //! `lander-worker` process over iceoryx2, beside the same chunk evaluated
 //! in-process, so the transport's cost is the difference.
 //!
-//! `cargo build --release -p lander-worker && cargo bench -p lander-coordinator --bench roundtrip`
+//! `cargo build --workspace --release --bins && cargo bench --workspace --bench roundtrip`
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use lander_coordinator::config::RunConfig;
@@ -23,7 +23,7 @@ fn worker_pool() -> IpcPool {
         .join("lander-worker");
     assert!(
         worker_exe.exists(),
-        "{} is missing: run `cargo build --release -p lander-worker` first",
+        "{} is missing: run `cargo build --workspace --release --bins` first",
         worker_exe.display()
     );
     let opts = PoolOptions {

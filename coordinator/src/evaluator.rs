@@ -30,7 +30,7 @@ pub enum EvalError {
     Threads { threads: usize, reason: String },
     #[error(transparent)]
     Ipc(#[from] IpcError),
-    #[error("cannot start the worker {exe}: {reason} (build it with `cargo build --release -p lander-worker`)")]
+    #[error("cannot start the worker {exe}: {reason} (build it with `cargo build --workspace --release --bins`)")]
     Spawn { exe: String, reason: String },
     #[error(
         "the worker {exe} speaks protocol version {got}, this lander {}: they come from \

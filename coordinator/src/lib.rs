@@ -7,10 +7,10 @@
 //! - [`pool`]: the evaluator pool over worker processes, reached over
 //!   iceoryx2 on this host or zenoh from any host.
 //! - [`bench`]: the throughput comparison behind `lander bench`.
-//! - [`report`]: what a run writes: JSON lines, `best.json`, the summary.
+//! - [`run_files`]: what a run writes: JSON lines, `best.json`, the summary.
 //! - [`experiment`]: many paired trials, resumable, with tables, plots and a report.
-//! - [`replay`]: flights traced for replays.
-//! - [`stop`]: Ctrl-C and SIGTERM, seen by the evaluators.
+//! - [`recording`]: genomes flown into Recordings for replays.
+//! - [`stop`]: the handle that asks the evaluators to stop.
 
 pub mod bench;
 pub mod config;
@@ -18,7 +18,7 @@ pub mod evaluator;
 pub mod experiment;
 pub mod ga;
 pub mod pool;
-pub mod replay;
-pub mod report;
+pub mod recording;
+pub mod run_files;
 pub mod stop;
 pub mod trial;

@@ -47,6 +47,6 @@ mod tests {
         assert!(!seen.asked());
         stop.ask();
         assert!(seen.asked());
-        assert!(Stop::default().asked() == false);
+        assert!(!Stop::default().asked());
     }
 }

@@ -2,7 +2,7 @@
 //! reference, the cost of one guided generation of 100 genomes, and Q(λ)
 //! decisions per second.
 //!
-//! `cargo bench -p lander-worker --bench flight`
+//! `cargo bench --workspace --bench flight`
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use lander_model::learn::train;

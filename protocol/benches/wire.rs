@@ -4,7 +4,7 @@
 //! byte-by-byte search for a bad action that the checks used to make, in
 //! the same run.
 //!
-//! `cargo bench -p lander-protocol --bench wire`
+//! `cargo bench --workspace --bench wire`
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use lander_model::{Evaluation, Outcome, Pass, State};

@@ -1,8 +1,10 @@
-//! The records an experiment keeps, one per finished trial, and the flight
-//! a replay draws. They are stored as JSON and read back on `--resume`, so
-//! every field is plain data.
+//! The records an experiment keeps, one per finished trial, and the
+//! [`Recording`] of a flight that a replay draws. They are stored as JSON
+//! and read back on `--resume`, so every field is plain data.
 
 use serde::{Deserialize, Serialize};
+
+pub use lander_model::Method;
 
 /// One generation of a GA trial: the best and mean fitness it scored.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -40,8 +42,8 @@ pub struct BestLander {
 /// One finished trial of one method.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrialRecord {
-    /// `ga`, `guided` or `qlearning`.
-    pub method: String,
+    /// Stored as its name: `ga`, `guided` or `qlearning`.
+    pub method: Method,
     pub seed: u64,
     /// Numbered from 1; trials with the same number share `x0` and `pad_x`.
     pub trial: u64,
@@ -87,10 +89,12 @@ pub struct Frame {
     pub thrust: bool,
 }
 
-/// One flight to replay: where, and every tick of it from the start state.
+/// A flight recorded frame by frame, to replay: where, and every tick of
+/// it from the start state. (The simulation's own [`lander_model::Flight`]
+/// is a flight in progress; this is what is left of one afterwards.)
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Flight {
-    /// A caption, such as "guided, trial 13: landed safely".
+pub struct Recording {
+    /// A caption, such as "guided GA, trial 13: landed safely".
     pub title: String,
     pub scene: Scene,
     /// The start state first, then one frame per tick to touchdown.

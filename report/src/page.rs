@@ -2,8 +2,8 @@
 //! (inline, as data URIs) and an animated replay of the best landing. It
 //! needs no network and no other file.
 
-use crate::model::Flight;
-use crate::plots::method_label as label;
+use crate::escape::escape;
+use crate::model::Recording;
 use crate::replay::{replay_widget, REPLAY_CSS, REPLAY_JS};
 use crate::summary::{num, pvalue, Summary};
 use base64::Engine;
@@ -13,22 +13,6 @@ use std::fmt::Write;
 pub struct Figure {
     pub caption: String,
     pub svg: String,
-}
-
-/// Escapes text for HTML element content and attribute values.
-pub fn escape(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&#39;"),
-            c => out.push(c),
-        }
-    }
-    out
 }
 
 const PAGE_CSS: &str = "
@@ -42,8 +26,8 @@ figure img { max-width: 100%; border: 1px solid #ddd; }
 .no { color: #a4281b; font-weight: 600; }
 ";
 
-/// The whole page.
-pub fn report_html(summary: &Summary, figures: &[Figure], flight: Option<&Flight>) -> String {
+/// The whole page; with a `recording`, the page ends with its replay.
+pub fn report_html(summary: &Summary, figures: &[Figure], recording: Option<&Recording>) -> String {
     let mut html = String::new();
     let title = format!("lander experiment {}", summary.name);
     let _ = write!(
@@ -68,9 +52,9 @@ pub fn report_html(summary: &Summary, figures: &[Figure], flight: Option<&Flight
             escape(&f.caption)
         );
     }
-    if let Some(flight) = flight {
+    if let Some(recording) = recording {
         html.push_str("<h2>The best landing</h2>\n");
-        html.push_str(&replay_widget(flight, "best-landing"));
+        html.push_str(&replay_widget(recording, "best-landing"));
         let _ = writeln!(html, "<script>{REPLAY_JS}</script>");
     }
     html.push_str("</body>\n</html>\n");
@@ -90,7 +74,7 @@ fn methods_table(s: &Summary) -> String {
         let _ = writeln!(
             html,
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.0}%</td><td>{}</td><td>{}</td></tr>",
-            escape(label(&m.method)),
+            escape(m.method.label()),
             m.trials,
             m.landed,
             100.0 * m.success_rate,
@@ -166,14 +150,6 @@ fn claims_table(s: &Summary) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn text_is_escaped() {
-        assert_eq!(
-            escape("<a href=\"x\">&'"),
-            "&lt;a href=&quot;x&quot;&gt;&amp;&#39;"
-        );
-    }
 
     #[test]
     fn figures_are_inline_and_the_page_needs_no_network() {

@@ -1,7 +1,8 @@
-//! Flight replays: a static SVG of one flight ([`flight_svg`]) and an
-//! animated canvas replay, either as a standalone page ([`flight_html`]) or as
-//! a fragment for the experiment report ([`replay_widget`] plus
-//! [`REPLAY_JS`] and [`REPLAY_CSS`], inlined once per page).
+//! Flight replays, drawn from a [`Recording`]: a static SVG of one flight
+//! ([`flight_svg`]) and an animated canvas replay, either as a standalone
+//! page ([`flight_html`]) or as a fragment for the experiment report
+//! ([`replay_widget`] plus [`REPLAY_JS`] and [`REPLAY_CSS`], inlined once
+//! per page).
 //!
 //! The world is SPEC §1's: y grows upward, a model point `(px, py)` of the
 //! hull sits at `x + s·(px·cos rot + py·sin rot)`,
@@ -14,7 +15,8 @@
 use std::fmt::Write as _;
 use std::ops::Range;
 
-use crate::model::{Flight, Frame, Scene};
+use crate::escape::escape;
+use crate::model::{Frame, Recording, Scene};
 
 /// The replay script for [`replay_widget`]s; inline it once per page, after
 /// or before the widgets (it waits for the document to load).
@@ -60,22 +62,6 @@ fn to_world(scene: &Scene, frame: &Frame, (px, py): (f64, f64)) -> (f64, f64) {
         frame.x + s * (px * cos + py * sin),
         frame.y + s * (-px * sin + py * cos),
     )
-}
-
-/// Escapes text for HTML and XML content and attribute values.
-fn escape_xml(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&#39;"),
-            _ => out.push(c),
-        }
-    }
-    out
 }
 
 /// A coordinate with at most two decimals and no trailing zeros.
@@ -133,33 +119,33 @@ fn thin(run: &[(f64, f64)], min: f64) -> Vec<(f64, f64)> {
 
 /// One line of the outcome: safe or crashed, ticks flown, and the distance
 /// from the pad at touchdown.
-fn outcome_text(flight: &Flight) -> String {
-    let verdict = if flight.safe {
+fn outcome_text(recording: &Recording) -> String {
+    let verdict = if recording.safe {
         "safe landing"
     } else {
         "crashed"
     };
-    match flight.frames.last() {
+    match recording.frames.last() {
         Some(last) => format!(
             "{verdict} · {} ticks · {:.1} px from the pad",
-            flight.frames.len() - 1,
-            (last.x - flight.scene.pad_x).abs()
+            recording.frames.len() - 1,
+            (last.x - recording.scene.pad_x).abs()
         ),
         None => verdict.to_owned(),
     }
 }
 
-/// A static SVG of the flight: sky, ground, pad, the trajectory (thrust in
+/// A static SVG of the recorded flight: sky, ground, pad, the trajectory (thrust in
 /// orange), a marker at the start and the lander at touchdown, with the
 /// title and the outcome. The view box is the world, with y flipped.
-pub fn flight_svg(flight: &Flight) -> String {
-    let scene = &flight.scene;
+pub fn flight_svg(recording: &Recording) -> String {
+    let scene = &recording.scene;
     let (w, h) = (scene.width, scene.height);
     // SVG y grows downward.
     let fy = |y: f64| h - y;
     let pt = |(x, y): (f64, f64)| format!("{},{}", num(x), num(fy(y)));
     let mut svg = String::new();
-    let title = escape_xml(&flight.title);
+    let title = escape(&recording.title);
     let _ = writeln!(
         svg,
         r#"<svg xmlns="http://www.w3.org/2000/svg" class="lander-flight" viewBox="0 0 {} {}" width="{}" height="{}" role="img" font-family="system-ui, sans-serif">"#,
@@ -225,7 +211,7 @@ pub fn flight_svg(flight: &Flight) -> String {
         ("trajectory-thrust", "#ff9d3a", 1.4, true),
     ];
     for (class, colour, width, thrust_only) in layers {
-        for run in trajectory_runs(&flight.frames, w, |f| !thrust_only || f.thrust) {
+        for run in trajectory_runs(&recording.frames, w, |f| !thrust_only || f.thrust) {
             let points: Vec<String> = thin(&run, 0.75).into_iter().map(pt).collect();
             let _ = writeln!(
                 svg,
@@ -235,7 +221,7 @@ pub fn flight_svg(flight: &Flight) -> String {
         }
     }
 
-    if let Some(first) = flight.frames.first() {
+    if let Some(first) = recording.frames.first() {
         let _ = writeln!(
             svg,
             r##"<circle class="start" cx="{}" cy="{}" r="2" fill="none" stroke="#9fc3ff" stroke-width="0.8"/>"##,
@@ -246,7 +232,7 @@ pub fn flight_svg(flight: &Flight) -> String {
 
     // The lander at touchdown, drawn again across the edge when it straddles
     // the wrap.
-    if let Some(last) = flight.frames.last() {
+    if let Some(last) = recording.frames.last() {
         let reach = 2.0 * scene.hull_scale;
         let mut shifts = vec![0.0];
         if last.x < reach {
@@ -268,7 +254,7 @@ pub fn flight_svg(flight: &Flight) -> String {
     // them does not cut through the letters.
     let halo =
         r##"stroke="#070b18" stroke-width="2.5" stroke-linejoin="round" paint-order="stroke""##;
-    let outcome_colour = if flight.safe { "#5bff8a" } else { "#ff6b6b" };
+    let outcome_colour = if recording.safe { "#5bff8a" } else { "#ff6b6b" };
     let _ = writeln!(
         svg,
         r##"<text class="title" x="6" y="14" font-size="11" fill="#e8eef8" {halo}>{title}</text>"##
@@ -276,7 +262,7 @@ pub fn flight_svg(flight: &Flight) -> String {
     let _ = writeln!(
         svg,
         r#"<text class="outcome" x="6" y="27" font-size="9" fill="{outcome_colour}" {halo}>{}</text>"#,
-        escape_xml(&outcome_text(flight))
+        escape(&outcome_text(recording))
     );
     svg.push_str("</svg>\n");
     svg
@@ -309,32 +295,33 @@ fn lander_svg(scene: &Scene, frame: &Frame, pt: &impl Fn((f64, f64)) -> String) 
     g
 }
 
-/// The flight as JSON that is safe inside a `<script>` element: `</` becomes
-/// `<\/` so no string can close the element, and `<!--` becomes `\u003c!--`
-/// so none can switch the HTML parser into its script-escape state. Both are
-/// valid JSON escapes, so the text parses back to the same flight.
-fn script_json(flight: &Flight) -> String {
-    // A Flight is plain data and always serialises.
-    let json = serde_json::to_string(flight).unwrap_or_else(|_| "null".to_owned());
+/// The recording as JSON that is safe inside a `<script>` element: `</`
+/// becomes `<\/` so no string can close the element, and `<!--` becomes
+/// `\u003c!--` so none can switch the HTML parser into its script-escape
+/// state. Both are valid JSON escapes, so the text parses back to the same
+/// recording.
+fn script_json(recording: &Recording) -> String {
+    // A Recording is plain data and always serialises.
+    let json = serde_json::to_string(recording).unwrap_or_else(|_| "null".to_owned());
     json.replace("</", "<\\/").replace("<!--", "\\u003c!--")
 }
 
-/// The replay widget for `flight`: a canvas, its controls (play/pause,
-/// restart, speed, a seek bar, the tick and the outcome) and the flight as
-/// embedded JSON in `<script type="application/json" id="{id}-data">`.
+/// The replay widget for `recording`: a canvas, its controls (play/pause,
+/// restart, speed, a seek bar, the tick and the outcome) and the recording
+/// as embedded JSON in `<script type="application/json" id="{id}-data">`.
 /// `id` names the widget's element and should be unique on the page. The
 /// page must also inline [`REPLAY_JS`] and [`REPLAY_CSS`] once.
-pub fn replay_widget(flight: &Flight, id: &str) -> String {
-    let scene = &flight.scene;
+pub fn replay_widget(recording: &Recording, id: &str) -> String {
+    let scene = &recording.scene;
     let aspect = if scene.width > 0.0 && scene.height > 0.0 {
         scene.height / scene.width
     } else {
         0.75
     };
     let canvas_height = (CANVAS_WIDTH * aspect).round();
-    let id = escape_xml(id);
-    let title = escape_xml(&flight.title);
-    let last = flight.frames.len().saturating_sub(1);
+    let id = escape(id);
+    let title = escape(&recording.title);
+    let last = recording.frames.len().saturating_sub(1);
     let speeds = [
         (0.25, "0.25×"),
         (0.5, "0.5×"),
@@ -365,14 +352,14 @@ pub fn replay_widget(flight: &Flight, id: &str) -> String {
 <script type="application/json" class="lander-replay-data" id="{id}-data">{json}</script>
 </figure>
 "#,
-        json = script_json(flight),
+        json = script_json(recording),
     )
 }
 
-/// A standalone HTML page that animates the flight: the replay widget with
+/// A standalone HTML page that animates the recorded flight: the replay widget with
 /// the script and style sheet inlined, so it needs no network.
-pub fn flight_html(flight: &Flight) -> String {
-    let title = escape_xml(&flight.title);
+pub fn flight_html(recording: &Recording) -> String {
+    let title = escape(&recording.title);
     format!(
         r#"<!DOCTYPE html>
 <html lang="en">
@@ -393,7 +380,7 @@ h1 {{ font-size: 1.2rem; font-weight: 600; margin: 0 0 0.75rem; }}
 </html>
 "#,
         css = REPLAY_CSS,
-        widget = replay_widget(flight, "flight"),
+        widget = replay_widget(recording, "flight"),
         js = REPLAY_JS,
     )
 }
@@ -436,7 +423,7 @@ mod tests {
     /// A lander that starts upside down at (200, 250), turns upright while it
     /// falls, and brakes with the engine, steering towards a pad at 235, by
     /// SPEC §1's physics.
-    fn sample_flight() -> Flight {
+    fn sample_recording() -> Recording {
         let scene = scene(235.0);
         let (mut x, mut y, mut vx, mut vy, mut rot) =
             (200.0_f64, 250.0_f64, 0.0_f64, 0.0_f64, std::f64::consts::PI);
@@ -495,7 +482,7 @@ mod tests {
         let safe = (last.x - scene.pad_x).abs() < 10.0
             && speed < 0.5
             && last.rot.abs() < std::f64::consts::PI / 16.0;
-        Flight {
+        Recording {
             title: format!(
                 "sample flight: {}",
                 if safe { "landed safely" } else { "crashed" }
@@ -506,8 +493,8 @@ mod tests {
         }
     }
 
-    /// A flight drifting right across the world's right edge.
-    fn wrapping_flight() -> Flight {
+    /// A recording of a flight drifting right across the world's right edge.
+    fn wrapping_recording() -> Recording {
         let xs = [380.0, 390.0, 398.0, 2.0, 10.0, 20.0];
         let frames = xs
             .iter()
@@ -519,7 +506,7 @@ mod tests {
                 thrust: i == 4,
             })
             .collect();
-        Flight {
+        Recording {
             title: "wrap".into(),
             scene: scene(100.0),
             frames,
@@ -551,15 +538,15 @@ mod tests {
 
     #[test]
     fn sample_flight_lands_safely() {
-        let flight = sample_flight();
-        assert!(flight.safe, "{:?}", flight.frames.last());
-        assert!(flight.frames.iter().any(|f| f.thrust));
+        let recording = sample_recording();
+        assert!(recording.safe, "{:?}", recording.frames.last());
+        assert!(recording.frames.iter().any(|f| f.thrust));
     }
 
     #[test]
     fn svg_draws_scene_trajectory_and_lander() {
-        let flight = sample_flight();
-        let svg = flight_svg(&flight);
+        let recording = sample_recording();
+        let svg = flight_svg(&recording);
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
         assert!(svg.contains(r#"class="ground""#));
         // The pad spans pad_x ± pad_half_width on the ground line (y = 300 − 55).
@@ -581,8 +568,8 @@ mod tests {
 
     #[test]
     fn svg_lander_sits_on_the_ground_at_touchdown() {
-        let flight = sample_flight();
-        let svg = flight_svg(&flight);
+        let recording = sample_recording();
+        let svg = flight_svg(&recording);
         let lander = &svg[svg.find(r#"<g class="lander">"#).unwrap()..];
         let lander = &lander[..lander.find("</g>").unwrap()];
         // The lowest hull point (largest SVG y) is just under the ground line.
@@ -600,7 +587,7 @@ mod tests {
 
     #[test]
     fn svg_breaks_the_trajectory_at_the_wrap() {
-        let svg = flight_svg(&wrapping_flight());
+        let svg = flight_svg(&wrapping_recording());
         let runs = polylines(&svg, "trajectory");
         // y = 200 − 10·i flips to 300 − y.
         assert_eq!(runs, ["380,100 390,110 398,120", "2,130 10,140 20,150"]);
@@ -610,11 +597,11 @@ mod tests {
 
     #[test]
     fn svg_draws_any_hull_and_escapes_the_title() {
-        let mut flight = wrapping_flight();
-        flight.scene.hull = vec![(-1.0, 0.0), (0.0, 1.0), (1.0, 0.0)];
-        flight.title = "a < b & \"c\"".into();
-        flight.frames.last_mut().unwrap().x = 5.0;
-        let svg = flight_svg(&flight);
+        let mut recording = wrapping_recording();
+        recording.scene.hull = vec![(-1.0, 0.0), (0.0, 1.0), (1.0, 0.0)];
+        recording.title = "a < b & \"c\"".into();
+        recording.frames.last_mut().unwrap().x = 5.0;
+        let svg = flight_svg(&recording);
         assert!(svg.contains(r#"class="hull-part outline""#));
         assert!(svg.contains("a &lt; b &amp; &quot;c&quot;"));
         assert!(!svg.contains("a < b"));
@@ -624,15 +611,15 @@ mod tests {
 
     #[test]
     fn svg_survives_an_empty_flight() {
-        let flight = Flight {
+        let recording = Recording {
             title: "empty".into(),
             scene: scene(100.0),
             frames: Vec::new(),
             safe: false,
         };
-        let svg = flight_svg(&flight);
+        let svg = flight_svg(&recording);
         assert!(!svg.contains("<polyline") && !svg.contains("class=\"lander\""));
-        assert!(flight_html(&flight).contains("tick 0 / 0"));
+        assert!(flight_html(&recording).contains("tick 0 / 0"));
     }
 
     #[test]
@@ -646,12 +633,12 @@ mod tests {
 
     /// serde_json's default float parser may be one ulp off, so frames
     /// compare to within a nanopixel.
-    fn assert_same_flight(back: &Flight, flight: &Flight) {
-        assert_eq!(back.title, flight.title);
-        assert_eq!(back.scene, flight.scene);
-        assert_eq!(back.safe, flight.safe);
-        assert_eq!(back.frames.len(), flight.frames.len());
-        for (b, f) in back.frames.iter().zip(&flight.frames) {
+    fn assert_same_recording(back: &Recording, recording: &Recording) {
+        assert_eq!(back.title, recording.title);
+        assert_eq!(back.scene, recording.scene);
+        assert_eq!(back.safe, recording.safe);
+        assert_eq!(back.frames.len(), recording.frames.len());
+        for (b, f) in back.frames.iter().zip(&recording.frames) {
             let close = (b.x - f.x).abs() < 1e-9
                 && (b.y - f.y).abs() < 1e-9
                 && (b.rot - f.rot).abs() < 1e-9;
@@ -661,23 +648,23 @@ mod tests {
 
     #[test]
     fn html_embeds_the_flight_as_json() {
-        let flight = sample_flight();
-        let html = flight_html(&flight);
-        let back: Flight = serde_json::from_str(embedded_json(&html)).unwrap();
-        assert_same_flight(&back, &flight);
+        let recording = sample_recording();
+        let html = flight_html(&recording);
+        let back: Recording = serde_json::from_str(embedded_json(&html)).unwrap();
+        assert_same_recording(&back, &recording);
         assert!(html.contains(r#"id="flight-data""#));
     }
 
     #[test]
     fn html_json_cannot_close_its_script() {
-        let mut flight = wrapping_flight();
-        flight.title = "evil </script><script>alert(1)</script> <!-- x".into();
-        let html = flight_html(&flight);
+        let mut recording = wrapping_recording();
+        recording.title = "evil </script><script>alert(1)</script> <!-- x".into();
+        let html = flight_html(&recording);
         let json = embedded_json(&html);
         assert!(json.contains(r"<\/script>"));
         assert!(!json.contains("</") && !json.contains("<!--"));
-        let back: Flight = serde_json::from_str(json).unwrap();
-        assert_same_flight(&back, &flight);
+        let back: Recording = serde_json::from_str(json).unwrap();
+        assert_same_recording(&back, &recording);
         // The title shows escaped everywhere else.
         assert!(html.contains("evil &lt;/script&gt;"));
         let inner = REPLAY_JS.matches("<script").count() + json.matches("<script").count();
@@ -687,7 +674,7 @@ mod tests {
 
     #[test]
     fn html_is_self_contained() {
-        let html = flight_html(&sample_flight());
+        let html = flight_html(&sample_recording());
         assert!(!html.contains("http://") && !html.contains("https://"));
         assert!(!html.contains("src=") && !html.contains("<link"));
         assert!(html.contains(REPLAY_JS) && html.contains(REPLAY_CSS));
@@ -698,8 +685,8 @@ mod tests {
 
     #[test]
     fn widget_has_controls_and_is_found_by_class() {
-        let flight = sample_flight();
-        let widget = replay_widget(&flight, "best-guided");
+        let recording = sample_recording();
+        let widget = replay_widget(&recording, "best-guided");
         assert!(widget.starts_with(r#"<figure class="lander-replay" id="best-guided""#));
         for role in ["play", "restart", "speed", "seek", "status", "outcome"] {
             assert!(widget.contains(&format!(r#"data-role="{role}""#)), "{role}");

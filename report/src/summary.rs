@@ -4,8 +4,7 @@
 //! `summary.md` and the terminal; the report page builds its own HTML from
 //! the same [`Summary`].
 
-use crate::model::TrialRecord;
-use crate::plots::method_label as label;
+use crate::model::{Method, TrialRecord};
 use crate::stats::{mean, quartiles, wilcoxon_signed_rank, Quartiles, Wilcoxon};
 use serde::Serialize;
 use std::fmt::Write;
@@ -13,7 +12,8 @@ use std::fmt::Write;
 /// How one GA method did over its trials.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MethodSummary {
-    pub method: String,
+    /// `ga` or `guided` in JSON.
+    pub method: Method,
     pub trials: usize,
     pub landed: usize,
     pub success_rate: f64,
@@ -74,7 +74,7 @@ pub struct Summary {
     pub claims: Vec<Claim>,
 }
 
-fn of<'a>(records: &'a [TrialRecord], method: &'a str) -> impl Iterator<Item = &'a TrialRecord> {
+fn of(records: &[TrialRecord], method: Method) -> impl Iterator<Item = &TrialRecord> {
     records.iter().filter(move |r| r.method == method)
 }
 
@@ -89,9 +89,9 @@ fn rate(part: usize, whole: usize) -> f64 {
 impl Summary {
     /// Summarises the records of an experiment named `name`.
     pub fn new(name: &str, seed: u64, trials: u64, records: &[TrialRecord]) -> Summary {
-        let methods: Vec<MethodSummary> = ["ga", "guided"]
-            .iter()
-            .filter(|m| of(records, m).next().is_some())
+        let methods: Vec<MethodSummary> = [Method::Ga, Method::Guided]
+            .into_iter()
+            .filter(|&m| of(records, m).next().is_some())
             .map(|m| method_summary(records, m))
             .collect();
         let paired = paired(records);
@@ -109,8 +109,9 @@ impl Summary {
         summary
     }
 
-    pub fn method(&self, name: &str) -> Option<&MethodSummary> {
-        self.methods.iter().find(|m| m.method == name)
+    /// How `method` did, if it is a GA method with records.
+    pub fn method(&self, method: Method) -> Option<&MethodSummary> {
+        self.methods.iter().find(|m| m.method == method)
     }
 
     /// The summary as Markdown: the headline table, the comparison, the
@@ -130,7 +131,7 @@ impl Summary {
                 let _ = writeln!(
                     md,
                     "| {} | {} | {} | {:.0}% | {} | {} |",
-                    label(&m.method),
+                    m.method.label(),
                     m.trials,
                     m.landed,
                     100.0 * m.success_rate,
@@ -223,7 +224,7 @@ pub fn pvalue(p: f64) -> String {
     }
 }
 
-fn method_summary(records: &[TrialRecord], method: &str) -> MethodSummary {
+fn method_summary(records: &[TrialRecord], method: Method) -> MethodSummary {
     let trials: Vec<&TrialRecord> = of(records, method).collect();
     let landed: Vec<f64> = trials
         .iter()
@@ -238,7 +239,7 @@ fn method_summary(records: &[TrialRecord], method: &str) -> MethodSummary {
         .collect();
     let wall: Vec<f64> = trials.iter().map(|r| r.wall_s).collect();
     MethodSummary {
-        method: method.to_string(),
+        method,
         trials: trials.len(),
         landed: landed.len(),
         success_rate: rate(landed.len(), trials.len()),
@@ -249,9 +250,9 @@ fn method_summary(records: &[TrialRecord], method: &str) -> MethodSummary {
 }
 
 fn paired(records: &[TrialRecord]) -> Option<Paired> {
-    let pairs: Vec<(&TrialRecord, &TrialRecord)> = of(records, "ga")
+    let pairs: Vec<(&TrialRecord, &TrialRecord)> = of(records, Method::Ga)
         .filter_map(|g| {
-            of(records, "guided")
+            of(records, Method::Guided)
                 .find(|r| r.trial == g.trial)
                 .map(|r| (g, r))
         })
@@ -289,7 +290,7 @@ fn paired(records: &[TrialRecord]) -> Option<Paired> {
 }
 
 fn learning_summary(records: &[TrialRecord]) -> Option<LearningSummary> {
-    let trials: Vec<_> = of(records, "qlearning")
+    let trials: Vec<_> = of(records, Method::Qlearning)
         .filter_map(|r| r.learning.as_ref())
         .collect();
     if trials.is_empty() {
@@ -314,7 +315,7 @@ fn learning_summary(records: &[TrialRecord]) -> Option<LearningSummary> {
 /// The paper's statements that this experiment can test.
 fn claims(s: &Summary) -> Vec<Claim> {
     let mut claims = Vec::new();
-    let (ga, guided) = (s.method("ga"), s.method("guided"));
+    let (ga, guided) = (s.method(Method::Ga), s.method(Method::Guided));
     if let Some(p) = &s.paired {
         claims.push(Claim {
             paper: "The guided GA needed fewer generations than the general GA in 24 of 25 trials (Figure 3).".into(),
@@ -383,14 +384,14 @@ mod tests {
     use crate::model::{FitnessPoint, Learning};
 
     fn trial(
-        method: &str,
+        method: Method,
         trial: u64,
         generations: u64,
         landed: bool,
         means: &[f64],
     ) -> TrialRecord {
         TrialRecord {
-            method: method.into(),
+            method,
             seed: 1,
             trial,
             x0: 1.0,
@@ -417,7 +418,7 @@ mod tests {
 
     fn learner(trial: u64, first_safe: Option<u32>, rate: f64) -> TrialRecord {
         TrialRecord {
-            method: "qlearning".into(),
+            method: Method::Qlearning,
             generations: None,
             restarts: None,
             episodes: first_safe,
@@ -428,7 +429,7 @@ mod tests {
                 landing_rate_last_100: rate,
                 returns: vec![0.0; 100],
             }),
-            ..self::trial("qlearning", trial, 0, false, &[])
+            ..self::trial(Method::Qlearning, trial, 0, false, &[])
         }
     }
 
@@ -436,12 +437,12 @@ mod tests {
     /// (30, 30), (5, 20). Guided is fewer once, ga once, one tie.
     fn sample() -> Vec<TrialRecord> {
         vec![
-            trial("ga", 1, 40, true, &[-5.0, -4.0, -3.0]),
-            trial("guided", 1, 10, true, &[-2.0, -1.0]),
-            trial("ga", 2, 30, false, &[-1.0, -1.0]),
-            trial("guided", 2, 30, true, &[-2.0, 0.0]),
-            trial("ga", 3, 5, true, &[-9.0]),
-            trial("guided", 3, 20, true, &[-1.0]),
+            trial(Method::Ga, 1, 40, true, &[-5.0, -4.0, -3.0]),
+            trial(Method::Guided, 1, 10, true, &[-2.0, -1.0]),
+            trial(Method::Ga, 2, 30, false, &[-1.0, -1.0]),
+            trial(Method::Guided, 2, 30, true, &[-2.0, 0.0]),
+            trial(Method::Ga, 3, 5, true, &[-9.0]),
+            trial(Method::Guided, 3, 20, true, &[-1.0]),
             learner(1, Some(40), 0.5),
             learner(2, None, 0.0),
         ]
@@ -450,14 +451,14 @@ mod tests {
     #[test]
     fn methods_are_summarised_over_their_landed_trials() {
         let s = Summary::new("t", 1, 3, &sample());
-        let ga = s.method("ga").unwrap();
+        let ga = s.method(Method::Ga).unwrap();
         assert_eq!((ga.trials, ga.landed), (3, 2));
         assert!((ga.success_rate - 2.0 / 3.0).abs() < 1e-12);
         // Landed generations 40 and 5: type-7 quartiles 13.75, 22.5, 31.25.
         let q = ga.generations.unwrap();
         assert_eq!((q.q1, q.median, q.q3), (13.75, 22.5, 31.25));
         assert_eq!(ga.mean_restarts, Some(1.0 / 3.0));
-        let guided = s.method("guided").unwrap();
+        let guided = s.method(Method::Guided).unwrap();
         assert_eq!(guided.landed, 3);
         assert_eq!(guided.generations.unwrap().median, 20.0);
     }

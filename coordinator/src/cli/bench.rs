@@ -1,9 +1,12 @@
-//! `lander bench`: the throughput stress test, modes side by side.
+//! `lander bench`: the throughput stress test, modes side by side. Here
+//! the flags are parsed, the evaluators built and the report printed; the
+//! warm-up, the turns, the ratios and the agreement of the results are the
+//! library's (`lander_coordinator::bench`).
 
 use super::transport::pool_options;
 use anyhow::Context;
 use clap::Args;
-use lander_coordinator::bench::{Mode, ModeEvaluator, ModeReport, Workload};
+use lander_coordinator::bench::{Measured, Mode, ModeKind, Plan, Report, Workload};
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::InProcess;
 use lander_coordinator::pool::zenoh::Zenoh;
@@ -12,7 +15,6 @@ use lander_coordinator::stop::Stop;
 use lander_model::Method;
 use lander_protocol::iox::MAX_WORKERS;
 use lander_protocol::net::{coordinator_config, NetOptions};
-use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -79,36 +81,6 @@ pub struct BenchArgs {
     kill_rate: f64,
 }
 
-#[derive(Serialize)]
-struct Ratios {
-    /// iceoryx2 with N workers over iceoryx2 with 1.
-    scaling: Option<f64>,
-    /// The scaling if the workers did nothing but compute, perfectly
-    /// balanced: one worker's compute per generation over the mean per
-    /// worker with N. Below N when N busy CPUs each run slower than one
-    /// does alone (a shared host, clock boost, shared caches): no pool can
-    /// scale past it.
-    compute_scaling: Option<f64>,
-    /// iceoryx2 with N workers over in-process with N threads.
-    ipc_efficiency: Option<f64>,
-    /// zenoh with N workers over in-process with N threads.
-    zenoh_efficiency: Option<f64>,
-}
-
-#[derive(Serialize)]
-struct Report {
-    method: &'static str,
-    population: usize,
-    in_flight: u16,
-    generations: u64,
-    rounds: usize,
-    workers: usize,
-    chunks_per_worker: u16,
-    modes: Vec<ModeReport>,
-    ratios: Ratios,
-    hashes_agree: bool,
-}
-
 fn args_for_stress(args: &BenchArgs) -> super::stress::StressArgs {
     super::stress::StressArgs {
         workers: args.workers,
@@ -129,59 +101,48 @@ fn pool_options_for(
     Ok(opts)
 }
 
-fn modes(args: &BenchArgs, stop: &Stop) -> anyhow::Result<Vec<Mode>> {
-    let n = args.workers;
-    let mut modes = Vec::new();
+/// The modes `--transports` names, in its order, each transport checked
+/// before any evaluator starts.
+fn kinds(args: &BenchArgs) -> anyhow::Result<Vec<ModeKind>> {
+    let mut kinds = Vec::new();
     for transport in &args.transports {
-        match transport.as_str() {
-            "inproc" => {
-                modes.push(Mode::new(
-                    "inproc-1",
-                    ModeEvaluator::InProcess(InProcess::new(1)?),
-                ));
-                if n > 1 {
-                    modes.push(Mode::new(
-                        format!("inproc-{n}"),
-                        ModeEvaluator::InProcess(InProcess::new(n)?),
-                    ));
-                }
-            }
-            "iceoryx2" => {
-                for w in if n > 1 { vec![1, n] } else { vec![1] } {
-                    let id = format!("bench{:08x}", rand::random::<u32>());
-                    let opts = pool_options_for(args, id, w, stop)?;
-                    let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("lander: {m}")))?;
-                    pool.wait_for_workers(w, Duration::from_secs(20))
-                        .context("waiting for the benchmark's workers")?;
-                    modes.push(Mode::new(
-                        format!("iceoryx2-{w}"),
-                        ModeEvaluator::Iceoryx2(Box::new(pool)),
-                    ));
-                }
-            }
-            "zenoh" => {
-                let id = format!("bench{:08x}", rand::random::<u32>());
-                let opts = pool_options_for(args, id, n, stop)?;
-                let options = NetOptions {
-                    listen: vec![args.listen.clone()],
-                    ..NetOptions::default()
-                };
-                let transport = Zenoh::open(&opts.run_id, coordinator_config(&options)?)?;
-                let say = Box::new(|m: &str| eprintln!("lander: {m}"));
-                let mut pool = Pool::with_transport(transport, opts, say)?;
-                pool.wait_for_workers(n, Duration::from_secs(20))
-                    .context("waiting for the benchmark's zenoh workers")?;
-                modes.push(Mode::new(
-                    format!("zenoh-{n}"),
-                    ModeEvaluator::Zenoh(Box::new(pool)),
-                ));
-            }
-            other => anyhow::bail!(
-                "--transports: unknown transport {other:?} (known: inproc, iceoryx2, zenoh)"
+        match ModeKind::for_transport(transport, args.workers) {
+            Some(k) => kinds.extend(k),
+            None => anyhow::bail!(
+                "--transports: unknown transport {transport:?} (known: inproc, iceoryx2, zenoh)"
             ),
         }
     }
-    Ok(modes)
+    Ok(kinds)
+}
+
+/// Starts the evaluator of a mode of `kind`, its workers announced.
+fn evaluator(args: &BenchArgs, kind: ModeKind, stop: &Stop) -> anyhow::Result<Box<dyn Measured>> {
+    Ok(match kind {
+        ModeKind::InProcess { threads } => Box::new(InProcess::new(threads)?),
+        ModeKind::Iceoryx2 { workers } => {
+            let id = format!("bench{:08x}", rand::random::<u32>());
+            let opts = pool_options_for(args, id, workers, stop)?;
+            let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("lander: {m}")))?;
+            pool.wait_for_workers(workers, Duration::from_secs(20))
+                .context("waiting for the benchmark's workers")?;
+            Box::new(pool)
+        }
+        ModeKind::Zenoh { workers } => {
+            let id = format!("bench{:08x}", rand::random::<u32>());
+            let opts = pool_options_for(args, id, workers, stop)?;
+            let options = NetOptions {
+                listen: vec![args.listen.clone()],
+                ..NetOptions::default()
+            };
+            let transport = Zenoh::open(&opts.run_id, coordinator_config(&options)?)?;
+            let say = Box::new(|m: &str| eprintln!("lander: {m}"));
+            let mut pool = Pool::with_transport(transport, opts, say)?;
+            pool.wait_for_workers(workers, Duration::from_secs(20))
+                .context("waiting for the benchmark's zenoh workers")?;
+            Box::new(pool)
+        }
+    })
 }
 
 pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
@@ -225,74 +186,29 @@ pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
     if args.stress {
         return super::stress::stress(&args_for_stress(&args), &work, stop);
     }
-    let mut modes = modes(&args, stop)?;
-    anyhow::ensure!(!modes.is_empty(), "--transports named no transport");
-
-    // A short warm-up, then every generation flown by every mode in turn,
-    // the order rotating, so noise hits all modes alike.
-    for m in &mut modes {
-        m.step(&work, 0)?;
-        m.reset();
+    let kinds = kinds(&args)?;
+    anyhow::ensure!(!kinds.is_empty(), "--transports named no transport");
+    let mut modes = Vec::new();
+    for kind in kinds {
+        modes.push(Mode::new(kind, evaluator(&args, kind, stop)?));
     }
-    let k = modes.len();
-    let mut turn = 0;
-    for _ in 0..args.rounds {
-        for g in 0..work.steps.len() {
-            for i in 0..k {
-                modes[(i + turn) % k].step(&work, g)?;
-            }
-            turn += 1;
-        }
-        modes.iter_mut().for_each(Mode::end_round);
-    }
-
-    let reports: Vec<ModeReport> = modes.iter().map(Mode::report).collect();
-    let rate = |name: String| {
-        reports
-            .iter()
-            .find(|m| m.name == name)
-            .map(|m| m.genomes_per_s)
-    };
-    let compute = |name: String| {
-        reports
-            .iter()
-            .find(|m| m.name == name)
-            .and_then(|m| m.generation)
-            .map(|g| g.compute_us)
-    };
-    let n = args.workers;
-    let ratio = |a: Option<f64>, b: Option<f64>| Some(a? / b?);
-    let ratios = Ratios {
-        scaling: ratio(rate(format!("iceoryx2-{n}")), rate("iceoryx2-1".into())).filter(|_| n > 1),
-        compute_scaling: ratio(
-            compute("iceoryx2-1".into()),
-            compute(format!("iceoryx2-{n}")),
-        )
-        .filter(|_| n > 1),
-        ipc_efficiency: ratio(rate(format!("iceoryx2-{n}")), rate(format!("inproc-{n}"))),
-        zenoh_efficiency: ratio(rate(format!("zenoh-{n}")), rate(format!("inproc-{n}"))),
-    };
-    let hashes_agree = modes.iter().all(|m| m.tally.consistent)
-        && reports.windows(2).all(|w| w[0].hash == w[1].hash);
-    let report = Report {
-        method: cfg.method.name(),
-        population: cfg.ga.population,
-        in_flight: args.in_flight,
-        generations,
+    let plan = Plan {
         rounds: args.rounds,
-        workers: n,
+        workers: args.workers,
         chunks_per_worker: args.chunks_per_worker.unwrap_or(DEFAULT_CHUNKS),
-        modes: reports,
-        ratios,
-        hashes_agree,
     };
+    let report = lander_coordinator::bench::run(&work, &mut modes, &plan)?;
+    // The workers go before the report is printed.
     drop(modes);
     if args.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {
         print_table(&report);
     }
-    anyhow::ensure!(hashes_agree, "the modes' results differ: a determinism bug");
+    anyhow::ensure!(
+        report.hashes_agree,
+        "the modes' results differ: a determinism bug"
+    );
     Ok(())
 }
 

@@ -9,7 +9,7 @@ use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::experiment::outputs::{ordered, write_outputs};
 use lander_coordinator::experiment::{
-    run, tasks, Experiment, ExperimentError, Progress, Store, Task,
+    run, tasks, Experiment, ExperimentError, Progress, Store, TrialId,
 };
 use lander_coordinator::stop::Stop;
 use lander_coordinator::trial::Generation;
@@ -59,8 +59,8 @@ pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
         .unwrap_or_else(|| PathBuf::from("results").join(&exp.name));
     let store = Store::open(&out, &exp, args.resume)?;
     let mut records = store.finished()?;
-    let done: HashSet<Task> = records.iter().filter_map(Task::of).collect();
-    let todo: Vec<Task> = tasks(&exp)
+    let done: HashSet<TrialId> = records.iter().map(TrialId::of).collect();
+    let todo: Vec<TrialId> = tasks(&exp)
         .into_iter()
         .filter(|t| !done.contains(t))
         .collect();
@@ -131,13 +131,13 @@ fn style(template: &str) -> ProgressStyle {
 struct Bars<'a> {
     bars: &'a MultiProgress,
     overall: &'a ProgressBar,
-    running: HashMap<Task, ProgressBar>,
+    running: HashMap<TrialId, ProgressBar>,
     store: &'a Store,
     records: &'a mut Vec<TrialRecord>,
 }
 
 impl Progress for Bars<'_> {
-    fn started(&mut self, task: Task, cfg: &RunConfig) {
+    fn started(&mut self, task: TrialId, cfg: &RunConfig) {
         let bar = match task.method {
             Method::Qlearning => {
                 let bar = self.bars.add(ProgressBar::new_spinner());
@@ -154,7 +154,7 @@ impl Progress for Bars<'_> {
         self.running.insert(task, bar);
     }
 
-    fn generation(&mut self, task: Task, g: &Generation) {
+    fn generation(&mut self, task: TrialId, g: &Generation) {
         if let Some(bar) = self.running.get(&task) {
             bar.set_position(g.generation);
             bar.set_message(format!("restart {} best {:.1}", g.restart, g.best));
@@ -165,11 +165,9 @@ impl Progress for Bars<'_> {
         self.store
             .save(&record)
             .map_err(|e| ExperimentError::Store(e.to_string()))?;
-        if let Some(task) = Task::of(&record) {
-            if let Some(bar) = self.running.remove(&task) {
-                bar.finish_and_clear();
-                self.bars.remove(&bar);
-            }
+        if let Some(bar) = self.running.remove(&TrialId::of(&record)) {
+            bar.finish_and_clear();
+            self.bars.remove(&bar);
         }
         self.records.push(record);
         self.overall.inc(1);

@@ -6,7 +6,7 @@ use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::Backend;
-use lander_coordinator::report::write_json;
+use lander_coordinator::run_files::write_json;
 use lander_model::learn::train;
 use lander_model::EpisodeRecord;
 use lander_model::StreamKey;

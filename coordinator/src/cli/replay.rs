@@ -8,10 +8,9 @@ use clap::{ArgGroup, Args};
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::experiment::outputs::ordered;
 use lander_coordinator::experiment::{Experiment, Store};
-use lander_coordinator::replay::{best_landing, trace};
-use lander_model::{parse_genome, Env};
-use lander_report::model::Flight;
-use lander_report::plots::method_label as label;
+use lander_coordinator::recording::{best_landing, trace};
+use lander_model::{parse_genome, Env, Method};
+use lander_report::model::Recording;
 use lander_report::replay::{flight_html, flight_svg};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -66,7 +65,7 @@ pub struct ReplayArgs {
 /// The fields of a run's `best.json` a replay needs.
 #[derive(Deserialize)]
 struct BestJson {
-    method: String,
+    method: Method,
     trial: u64,
     x0: f64,
     pad_x: f64,
@@ -78,7 +77,7 @@ struct BestJson {
 }
 
 pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
-    let draw: fn(&Flight) -> String = match args.out.extension().and_then(|e| e.to_str()) {
+    let draw: fn(&Recording) -> String = match args.out.extension().and_then(|e| e.to_str()) {
         Some("svg") => flight_svg,
         Some("html") => flight_html,
         _ => bail!(
@@ -86,17 +85,17 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
             args.out.display()
         ),
     };
-    let flight = match &args.run {
+    let recording = match &args.run {
         Some(dir) => from_folder(dir, &args)?,
         None => from_genome(&args)?,
     };
-    std::fs::write(&args.out, draw(&flight))
+    std::fs::write(&args.out, draw(&recording))
         .with_context(|| format!("writing {}", args.out.display()))?;
-    println!("{}; wrote {}", flight.title, args.out.display());
+    println!("{}; wrote {}", recording.title, args.out.display());
     Ok(())
 }
 
-fn from_genome(args: &ReplayArgs) -> anyhow::Result<Flight> {
+fn from_genome(args: &ReplayArgs) -> anyhow::Result<Recording> {
     let (Some(genome), Some(x0), Some(pad_x)) = (&args.genome, args.x0, args.pad_x) else {
         bail!("give --run DIR, or --genome with --x0 and --pad-x");
     };
@@ -109,9 +108,9 @@ fn from_genome(args: &ReplayArgs) -> anyhow::Result<Flight> {
     };
     check_start(&env, &StartNames::FLAGS)?;
     let genes = parse_genome(genome, cfg.ga.max_duration).context("--genome")?;
-    let (mut flight, outcome) = trace(&env, &genes, String::new());
-    flight.title = format!("x0 {x0}, pad {pad_x}: {}", ending(outcome.safe));
-    Ok(flight)
+    let (mut recording, outcome) = trace(&env, &genes, String::new());
+    recording.title = format!("x0 {x0}, pad {pad_x}: {}", ending(outcome.safe));
+    Ok(recording)
 }
 
 fn ending(safe: bool) -> &'static str {
@@ -122,7 +121,7 @@ fn ending(safe: bool) -> &'static str {
     }
 }
 
-fn from_folder(dir: &Path, args: &ReplayArgs) -> anyhow::Result<Flight> {
+fn from_folder(dir: &Path, args: &ReplayArgs) -> anyhow::Result<Recording> {
     let best = dir.join("best.json");
     if best.exists() {
         return from_best(&best, args.config.as_deref());
@@ -163,7 +162,7 @@ fn from_folder(dir: &Path, args: &ReplayArgs) -> anyhow::Result<Flight> {
 }
 
 /// A run's best lander, flown in the world the run recorded.
-fn from_best(path: &Path, config: Option<&Path>) -> anyhow::Result<Flight> {
+fn from_best(path: &Path, config: Option<&Path>) -> anyhow::Result<Recording> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let b: BestJson = serde_json::from_str(&text)
@@ -182,14 +181,14 @@ fn from_best(path: &Path, config: Option<&Path>) -> anyhow::Result<Flight> {
         pad_x: &format!("{}: pad_x", path.display()),
     };
     check_start(&env, &names)?;
-    let (mut flight, outcome) = trace(&env, &genes, String::new());
-    flight.title = format!(
+    let (mut recording, outcome) = trace(&env, &genes, String::new());
+    recording.title = format!(
         "{}, trial {}: {}",
-        label(&b.method),
+        b.method.label(),
         b.trial,
         ending(outcome.safe)
     );
-    Ok(flight)
+    Ok(recording)
 }
 
 /// The configuration to replay a best.json in: the one it records, checked

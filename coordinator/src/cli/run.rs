@@ -6,8 +6,8 @@ use anyhow::{bail, Context};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lander_coordinator::config::RunConfig;
-use lander_coordinator::report::{
-    clear_run_outputs, write_json, BestRecord, GenerationLog, Summary,
+use lander_coordinator::run_files::{
+    clear_run_outputs, write_json, BestRecord, GenerationLog, RunSummary,
 };
 use lander_coordinator::stop::Stop;
 use lander_coordinator::trial::{run_trial, Generation};
@@ -107,7 +107,7 @@ pub fn run(args: RunArgs, stop: &Stop) -> anyhow::Result<()> {
 
     let best_path = out.join("best.json");
     write_json(&best_path, &BestRecord::new(&cfg, &result))?;
-    let summary = Summary::new(&cfg, &result, wall_s);
+    let summary = RunSummary::new(&cfg, &result, wall_s);
     if args.json {
         println!("{}", serde_json::to_string(&summary)?);
     } else {

@@ -1,22 +1,20 @@
 //! `lander bench --stress`: throughput under churn. Workers are killed at
 //! random while small chunks fly; the results must equal an in-process
-//! evaluation of the same workload, genome by genome.
+//! evaluation of the same workload, genome by genome. Here the pool is
+//! built, the killer run and the report printed; the flying, the check and
+//! the kills' schedule are the library's (`lander_coordinator::bench::stress`).
 
 use super::transport::pool_options;
 use anyhow::Context;
-use lander_coordinator::bench::{Mode, ModeEvaluator, Workload};
+use lander_coordinator::bench::stress;
+use lander_coordinator::bench::{kill_gap, Mode, ModeKind, StressReport, Workload, MAX_KILL_RATE};
 use lander_coordinator::evaluator::InProcess;
 use lander_coordinator::pool::{kill_worker_child, worker_children, IpcPool};
 use lander_coordinator::stop::Stop;
 use rand::Rng;
-use serde::Serialize;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
-
-/// The most kills a second: a worker needs some milliseconds to start, so
-/// beyond this the workers would do little but die.
-const MAX_KILL_RATE: f64 = 100.0;
 
 pub struct StressArgs {
     pub workers: usize,
@@ -25,30 +23,16 @@ pub struct StressArgs {
     pub json: bool,
 }
 
-#[derive(Serialize)]
-struct StressReport {
-    method: &'static str,
-    population: usize,
-    generations: usize,
-    workers: usize,
-    kill_rate: f64,
-    kills: u64,
-    genomes_per_s: f64,
-    ticks_per_s: f64,
-    /// Genomes evaluated, and how many the workload holds.
-    evaluated: u64,
-    expected: u64,
-    /// Every result equals the in-process one.
-    results_match: bool,
-}
-
 pub fn stress(args: &StressArgs, work: &Workload, stop: &Stop) -> anyhow::Result<()> {
     anyhow::ensure!(
         (0.0..=MAX_KILL_RATE).contains(&args.kill_rate),
         "--kill-rate must be 0 to {MAX_KILL_RATE} kills per second (got {:?})",
         args.kill_rate
     );
-    let mut reference = Mode::new("inproc", ModeEvaluator::InProcess(InProcess::new(0)?));
+    // One thread per core: the reference need only be right.
+    let inproc = InProcess::new(0)?;
+    let threads = inproc.thread_count();
+    let mut reference = Mode::new(ModeKind::InProcess { threads }, Box::new(inproc));
     let mut opts = pool_options(
         format!("stress{:08x}", rand::random::<u32>()),
         args.workers,
@@ -61,7 +45,10 @@ pub fn stress(args: &StressArgs, work: &Workload, stop: &Stop) -> anyhow::Result
     let mut pool = IpcPool::start(opts, Box::new(|_| {}))?;
     pool.wait_for_workers(args.workers, Duration::from_secs(20))
         .context("waiting for the workers")?;
-    let mut churned = Mode::new("iceoryx2", ModeEvaluator::Iceoryx2(Box::new(pool)));
+    let kind = ModeKind::Iceoryx2 {
+        workers: args.workers,
+    };
+    let mut churned = Mode::new(kind, Box::new(pool));
 
     let stop = Arc::new(AtomicBool::new(false));
     let kills = Arc::new(AtomicU64::new(0));
@@ -69,32 +56,14 @@ pub fn stress(args: &StressArgs, work: &Workload, stop: &Stop) -> anyhow::Result
         let (stop, kills, rate) = (stop.clone(), kills.clone(), args.kill_rate);
         std::thread::spawn(move || kill_at_random(rate, &stop, &kills))
     });
-    for g in 0..work.steps.len() {
-        reference.step(work, g)?;
-        churned.step(work, g)?;
-    }
+    let flown = stress::fly(work, &mut reference, &mut churned);
     stop.store(true, Ordering::Relaxed);
     if let Some(k) = killer {
         let _ = k.join();
     }
-    reference.end_round();
-    churned.end_round();
-
-    let expected = work.genomes() as u64;
-    let r = churned.report();
-    let report = StressReport {
-        method: work.method.method().name(),
-        population: work.cfg.ga.population,
-        generations: work.steps.len(),
-        workers: args.workers,
-        kill_rate: args.kill_rate,
-        kills: kills.load(Ordering::Relaxed),
-        genomes_per_s: r.genomes_per_s,
-        ticks_per_s: r.ticks_per_s,
-        evaluated: churned.tally.genomes,
-        expected,
-        results_match: reference.tally.hash == churned.tally.hash,
-    };
+    flown?;
+    let kills = kills.load(Ordering::Relaxed);
+    let report = StressReport::new(work, &reference, &churned, args.kill_rate, kills);
     drop(churned);
     if args.json {
         println!("{}", serde_json::to_string(&report)?);
@@ -118,7 +87,7 @@ pub fn stress(args: &StressArgs, work: &Workload, stop: &Stop) -> anyhow::Result
         );
     }
     anyhow::ensure!(
-        report.results_match && report.evaluated == expected,
+        report.lost_nothing(),
         "work was lost or changed under churn"
     );
     Ok(())
@@ -129,9 +98,7 @@ pub fn stress(args: &StressArgs, work: &Workload, stop: &Stop) -> anyhow::Result
 fn kill_at_random(rate: f64, stop: &AtomicBool, kills: &AtomicU64) {
     let mut rng = rand::rng();
     while !stop.load(Ordering::Relaxed) {
-        // Exponential gaps make the kills a Poisson process.
-        let gap = -rng.random::<f64>().max(1e-9).ln() / rate;
-        let until = std::time::Instant::now() + Duration::from_secs_f64(gap.min(60.0));
+        let until = std::time::Instant::now() + kill_gap(rng.random::<f64>(), rate);
         while std::time::Instant::now() < until {
             if stop.load(Ordering::Relaxed) {
                 return;

@@ -3,7 +3,8 @@
 //! `summary.md`, the plots as SVG and PNG, and `report.html`.
 
 use super::file::Experiment;
-use crate::replay::best_landing;
+use crate::recording::best_landing;
+use lander_model::Method;
 use lander_report::model::TrialRecord;
 use lander_report::page::{report_html, Figure};
 use lander_report::plots::{fitness_per_generation, generations_per_trial, learning_curve, Plot};
@@ -69,7 +70,7 @@ struct GenerationLine<'a> {
 /// them.
 pub fn ordered(exp: &Experiment, mut records: Vec<TrialRecord>) -> Vec<TrialRecord> {
     let rank = |r: &TrialRecord| {
-        let m = exp.methods.iter().position(|m| m.name() == r.method);
+        let m = exp.methods.iter().position(|&m| m == r.method);
         (r.trial, m.unwrap_or(usize::MAX))
     };
     records.sort_by_key(rank);
@@ -80,7 +81,7 @@ fn csv_text(records: &[TrialRecord]) -> Result<Vec<u8>, String> {
     let mut out = csv::Writer::from_writer(Vec::new());
     for r in records {
         out.serialize(Row {
-            method: &r.method,
+            method: r.method.name(),
             trial: r.trial,
             seed: r.seed,
             x0: r.x0,
@@ -102,7 +103,7 @@ fn jsonl_text(records: &[TrialRecord]) -> Result<Vec<u8>, String> {
     for r in records {
         for g in &r.fitness {
             let line = GenerationLine {
-                method: &r.method,
+                method: r.method.name(),
                 trial: r.trial,
                 index: g.index,
                 restart: g.restart,
@@ -121,9 +122,9 @@ fn figures(
     exp: &Experiment,
     records: &[TrialRecord],
 ) -> Vec<(String, String, Result<Plot, String>)> {
-    let has = |m: &str| records.iter().any(|r| r.method == m);
+    let has = |m: Method| records.iter().any(|r| r.method == m);
     let mut figures = Vec::new();
-    if has("ga") || has("guided") {
+    if has(Method::Ga) || has(Method::Guided) {
         figures.push((
             "fig3-generations".to_string(),
             "Generations to a safe landing per trial (the paper's Figure 3)".to_string(),
@@ -136,7 +137,7 @@ fn figures(
             fitness_per_generation(records, t).map_err(|e| e.to_string()),
         ));
     }
-    if has("qlearning") {
+    if has(Method::Qlearning) {
         figures.push((
             "qlearning-curve".to_string(),
             "The Q(λ) learning curve".to_string(),
@@ -174,8 +175,8 @@ pub fn write_outputs(
             svg: plot.svg,
         });
     }
-    let flight = best_landing(exp, records);
-    let html = report_html(&summary, &shown, flight.as_ref());
+    let recording = best_landing(exp, records);
+    let html = report_html(&summary, &shown, recording.as_ref());
     write(dir, "report.html", html.as_bytes())?;
     Ok(summary)
 }

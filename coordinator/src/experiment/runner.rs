@@ -15,39 +15,37 @@ use std::time::Instant;
 
 /// One trial of one method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct Task {
+pub struct TrialId {
     pub method: Method,
     pub trial: u64,
 }
 
-impl Task {
-    pub fn of(record: &TrialRecord) -> Option<Task> {
-        let method = [Method::Ga, Method::Guided, Method::Qlearning]
-            .into_iter()
-            .find(|m| m.name() == record.method)?;
-        Some(Task {
-            method,
+impl TrialId {
+    /// The trial a record is of.
+    pub fn of(record: &TrialRecord) -> TrialId {
+        TrialId {
+            method: record.method,
             trial: record.trial,
-        })
+        }
     }
 }
 
 /// Every trial of the experiment: trial by trial, each method in the
 /// file's order, so that an interrupted run has finished whole pairs.
-pub fn tasks(exp: &Experiment) -> Vec<Task> {
+pub fn tasks(exp: &Experiment) -> Vec<TrialId> {
     (1..=exp.trials)
         .flat_map(|trial| {
             exp.methods
                 .iter()
-                .map(move |&method| Task { method, trial })
+                .map(move |&method| TrialId { method, trial })
         })
         .collect()
 }
 
 /// What the runner reports as it goes. A `finished` error stops the run.
 pub trait Progress {
-    fn started(&mut self, task: Task, cfg: &RunConfig);
-    fn generation(&mut self, task: Task, generation: &Generation);
+    fn started(&mut self, task: TrialId, cfg: &RunConfig);
+    fn generation(&mut self, task: TrialId, generation: &Generation);
     fn finished(&mut self, record: TrialRecord) -> Result<(), ExperimentError>;
 }
 
@@ -66,19 +64,19 @@ pub enum ExperimentError {
 /// `in_flight`, the backend or the order of finishing.
 pub fn run(
     exp: &Experiment,
-    tasks: &[Task],
+    tasks: &[TrialId],
     backend: &mut dyn Backend,
     in_flight: usize,
     progress: &mut dyn Progress,
 ) -> Result<(), ExperimentError> {
-    let (learning, evolving): (Vec<Task>, Vec<Task>) =
+    let (learning, evolving): (Vec<TrialId>, Vec<TrialId>) =
         tasks.iter().partition(|t| t.method == Method::Qlearning);
     evolve(exp, &evolving, backend, in_flight.max(1), progress)?;
     learn(exp, &learning, backend, progress)
 }
 
 struct Running {
-    task: Task,
+    task: TrialId,
     run: TrialRun,
     log: Vec<Generation>,
     started: Instant,
@@ -86,7 +84,7 @@ struct Running {
 
 fn evolve(
     exp: &Experiment,
-    tasks: &[Task],
+    tasks: &[TrialId],
     backend: &mut dyn Backend,
     in_flight: usize,
     progress: &mut dyn Progress,
@@ -146,7 +144,7 @@ fn breed(running: &mut [Running], evaluations: &[Vec<Evaluation>]) -> Vec<Genera
 
 fn learn(
     exp: &Experiment,
-    tasks: &[Task],
+    tasks: &[TrialId],
     backend: &mut dyn Backend,
     progress: &mut dyn Progress,
 ) -> Result<(), ExperimentError> {
@@ -193,7 +191,7 @@ pub fn evolution_record(
     started: Instant,
 ) -> TrialRecord {
     TrialRecord {
-        method: cfg.method.name().to_string(),
+        method: cfg.method,
         seed: cfg.seed,
         trial: cfg.trial,
         x0: result.x0,
@@ -232,7 +230,7 @@ pub fn learning_record(
 ) -> TrialRecord {
     let t = &result.training;
     TrialRecord {
-        method: cfg.method.name().to_string(),
+        method: cfg.method,
         seed: cfg.seed,
         trial: cfg.trial,
         x0: job.env.x0,

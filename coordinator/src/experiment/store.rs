@@ -3,8 +3,8 @@
 //! each written whole or not at all, so `--resume` can trust what it finds.
 
 use super::file::Experiment;
-use super::runner::Task;
-use crate::report::write_json;
+use super::runner::TrialId;
+use crate::run_files::write_json;
 use lander_report::model::TrialRecord;
 use std::path::{Path, PathBuf};
 
@@ -91,20 +91,14 @@ impl Store {
         }
     }
 
-    fn path_of(&self, task: Task) -> PathBuf {
+    fn path_of(&self, task: TrialId) -> PathBuf {
         self.trials_dir()
             .join(format!("{}-{:05}.json", task.method.name(), task.trial))
     }
 
     /// Writes one finished trial, atomically.
     pub fn save(&self, record: &TrialRecord) -> Result<(), StoreError> {
-        let Some(task) = Task::of(record) else {
-            return Err(StoreError::Io {
-                path: self.trials_dir(),
-                message: format!("unknown method {:?}", record.method),
-            });
-        };
-        let path = self.path_of(task);
+        let path = self.path_of(TrialId::of(record));
         write_json(&path, record).map_err(|e| StoreError::Io {
             path,
             message: e.source.to_string(),
@@ -178,9 +172,9 @@ mod tests {
     use super::*;
     use lander_model::Method;
 
-    fn record(method: &str, trial: u64) -> TrialRecord {
+    fn record(method: Method, trial: u64) -> TrialRecord {
         TrialRecord {
-            method: method.into(),
+            method,
             seed: 1,
             trial,
             x0: 10.0,
@@ -206,8 +200,8 @@ mod tests {
             Err(StoreError::NothingToResume { .. })
         ));
         let store = Store::open(&dir, &exp, false).unwrap();
-        store.save(&record("guided", 2)).unwrap();
-        store.save(&record("ga", 2)).unwrap();
+        store.save(&record(Method::Guided, 2)).unwrap();
+        store.save(&record(Method::Ga, 2)).unwrap();
         std::fs::write(dir.join("trials/ga-00003.json.tmp"), "{half").unwrap();
         assert!(matches!(
             Store::open(&dir, &exp, false),
@@ -222,10 +216,10 @@ mod tests {
         }
         let again = Store::open(&dir, &exp, true).unwrap();
         let found = again.finished().unwrap();
-        let tasks: Vec<Task> = found.iter().filter_map(Task::of).collect();
+        let tasks: Vec<TrialId> = found.iter().map(TrialId::of).collect();
         assert_eq!(
             tasks,
-            [Method::Ga, Method::Guided].map(|method| Task { method, trial: 2 })
+            [Method::Ga, Method::Guided].map(|method| TrialId { method, trial: 2 })
         );
         assert!(!dir.join("trials/ga-00003.json.tmp").exists());
         std::fs::remove_dir_all(&dir).unwrap();

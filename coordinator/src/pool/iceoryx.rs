@@ -2,7 +2,8 @@
 //! run's registration service, and each has its own request-response and
 //! event services, since iceoryx2 delivers a request to every server.
 
-use super::{check, Answer, Arrival, ChunkTiming, Transport, WorkerLink, DEPTH};
+use super::link::check;
+use super::{Answer, Arrival, ChunkTiming, Transport, WorkerLink, DEPTH};
 use crate::evaluator::EvalError;
 use iceoryx2::pending_response::PendingResponse;
 use iceoryx2::port::client::Client;
@@ -126,8 +127,8 @@ type Pending = PendingResponse<ipc::Service, [WireGene], JobHeader, [u8], Result
 
 struct InFlight {
     job_id: u64,
-    /// The pool's index of the job.
-    job: usize,
+    /// The pool's index of the chunk.
+    chunk: usize,
     pending: Pending,
     /// When the request was sent, on the host's clock.
     sent_ns: u64,
@@ -205,9 +206,9 @@ impl WorkerLink for Link {
         self.busy.iter().filter_map(|f| f.deadline).min()
     }
 
-    /// Gives up on the jobs in flight, returning them.
+    /// Gives up on the chunks in flight, returning them.
     fn abandon(&mut self) -> Vec<usize> {
-        self.busy.drain(..).map(|f| f.job).collect()
+        self.busy.drain(..).map(|f| f.chunk).collect()
     }
 
     fn in_flight(&self) -> usize {
@@ -222,15 +223,15 @@ impl WorkerLink for Link {
         }
         let flight = self.busy.pop_back()?;
         self.passed_over.push(flight.job_id);
-        Some(flight.job)
+        Some(flight.chunk)
     }
 
-    /// Sends `genes` under `header` as the pool's job `job`.
+    /// Sends `genes` under `header` as the pool's chunk `chunk`.
     fn send(
         &mut self,
         header: JobHeader,
         genes: &[WireGene],
-        job: usize,
+        chunk: usize,
         deadline: Option<Duration>,
     ) -> Result<(), String> {
         let sent_ns = host_clock_ns();
@@ -258,7 +259,7 @@ impl WorkerLink for Link {
                 self.unannounced = true;
                 self.busy.push_back(InFlight {
                     job_id: header.job_id,
-                    job,
+                    chunk,
                     pending,
                     sent_ns,
                     deadline: deadline.map(|d| now + d),
@@ -291,7 +292,7 @@ impl WorkerLink for Link {
 
     /// Collects the answers that arrived, checked against the jobs they
     /// answer but not yet decoded. An answer that fails its checks breaks
-    /// the link and is reported beside the good ones; the jobs still in
+    /// the link and is reported beside the good ones; the chunks still in
     /// flight, the refused one among them, are then run elsewhere.
     fn poll(&mut self) -> (Vec<Answer>, Option<String>) {
         let mut answered = Vec::new();
@@ -319,7 +320,7 @@ impl WorkerLink for Link {
                 Ok((body, timing)) => {
                     let job_id = flight.job_id;
                     answered.push(Answer {
-                        job: flight.job,
+                        chunk: flight.chunk,
                         body,
                         timing,
                     });

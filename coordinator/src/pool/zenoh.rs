@@ -5,7 +5,8 @@
 //! worker's own key; its reply is the result. Every callback only forwards
 //! into a channel the pool sleeps on, so zenoh's threads never block.
 
-use super::{check, Answer, Arrival, ChunkTiming, Transport, WorkerLink, DEPTH};
+use super::link::check;
+use super::{Answer, Arrival, ChunkTiming, Transport, WorkerLink, DEPTH};
 use crate::evaluator::EvalError;
 use lander_protocol::envelope::{decode_result, encode_job};
 use lander_protocol::host::host_clock_ns;
@@ -193,7 +194,7 @@ struct Slot {
 
 struct InFlight {
     job_id: u64,
-    job: usize,
+    chunk: usize,
     slot: Arc<Mutex<Slot>>,
     /// When the request was sent, on the host's clock.
     sent_ns: u64,
@@ -234,7 +235,7 @@ impl WorkerLink for Link {
     }
 
     fn abandon(&mut self) -> Vec<usize> {
-        self.busy.drain(..).map(|f| f.job).collect()
+        self.busy.drain(..).map(|f| f.chunk).collect()
     }
 
     fn in_flight(&self) -> usize {
@@ -245,7 +246,7 @@ impl WorkerLink for Link {
         &mut self,
         header: JobHeader,
         genes: &[WireGene],
-        job: usize,
+        chunk: usize,
         deadline: Option<Duration>,
     ) -> Result<(), String> {
         let sent_ns = host_clock_ns();
@@ -288,7 +289,7 @@ impl WorkerLink for Link {
         let now = Instant::now();
         self.busy.push_back(InFlight {
             job_id: header.job_id,
-            job,
+            chunk,
             slot,
             sent_ns,
             deadline: deadline.map(|d| now + d),
@@ -328,7 +329,7 @@ impl WorkerLink for Link {
             match answer {
                 Ok((body, timing)) => {
                     answered.push(Answer {
-                        job: flight.job,
+                        chunk: flight.chunk,
                         body,
                         timing,
                     });

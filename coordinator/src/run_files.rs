@@ -4,8 +4,7 @@
 
 use crate::config::RunConfig;
 use crate::trial::{Generation, TrialResult};
-use lander_model::format_genome;
-use lander_model::Outcome;
+use lander_model::{format_genome, Method, Outcome};
 use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -14,8 +13,8 @@ use std::path::{Path, PathBuf};
 /// Which trial a record is about, and whether it landed: the fields every
 /// record of a trial starts with.
 #[derive(Debug, Serialize)]
-pub struct TrialId {
-    pub method: &'static str,
+pub struct TrialHeader {
+    pub method: Method,
     pub seed: u64,
     pub trial: u64,
     pub x0: f64,
@@ -23,10 +22,10 @@ pub struct TrialId {
     pub landed: bool,
 }
 
-impl TrialId {
-    pub fn new(cfg: &RunConfig, result: &TrialResult) -> TrialId {
-        TrialId {
-            method: cfg.method.name(),
+impl TrialHeader {
+    pub fn new(cfg: &RunConfig, result: &TrialResult) -> TrialHeader {
+        TrialHeader {
+            method: cfg.method,
             seed: cfg.seed,
             trial: cfg.trial,
             x0: result.x0,
@@ -38,9 +37,9 @@ impl TrialId {
 
 /// The summary of one trial; the field order is the documented one.
 #[derive(Debug, Serialize)]
-pub struct Summary {
+pub struct RunSummary {
     #[serde(flatten)]
-    pub id: TrialId,
+    pub id: TrialHeader,
     pub generations: u64,
     pub restarts: u64,
     pub best_fitness: f64,
@@ -48,10 +47,10 @@ pub struct Summary {
     pub wall_s: f64,
 }
 
-impl Summary {
-    pub fn new(cfg: &RunConfig, result: &TrialResult, wall_s: f64) -> Summary {
-        Summary {
-            id: TrialId::new(cfg, result),
+impl RunSummary {
+    pub fn new(cfg: &RunConfig, result: &TrialResult, wall_s: f64) -> RunSummary {
+        RunSummary {
+            id: TrialHeader::new(cfg, result),
             generations: result.generations,
             restarts: result.restarts,
             best_fitness: result.best.outcome.fitness,
@@ -66,7 +65,7 @@ impl Summary {
 #[derive(Debug, Serialize)]
 pub struct BestRecord<'a> {
     #[serde(flatten)]
-    pub id: TrialId,
+    pub id: TrialHeader,
     /// The generation, counted across restarts, that flew it.
     pub generation: u64,
     pub restart: u64,
@@ -82,7 +81,7 @@ pub struct BestRecord<'a> {
 impl<'a> BestRecord<'a> {
     pub fn new(cfg: &'a RunConfig, result: &'a TrialResult) -> BestRecord<'a> {
         BestRecord {
-            id: TrialId::new(cfg, result),
+            id: TrialHeader::new(cfg, result),
             generation: result.best.index,
             restart: result.restarts,
             genome: format_genome(&result.best.genome),

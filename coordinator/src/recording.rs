@@ -1,11 +1,12 @@
 //! Flights to replay: one genome flown tick by tick into a
-//! [`lander_report::model::Flight`], and the best landing of an experiment.
+//! [`lander_report::model::Recording`], and the best landing of an
+//! experiment.
 
 use crate::experiment::Experiment;
 use lander_model::score::fitness;
 use lander_model::{fly_traced, Outcome, HULL};
 use lander_model::{parse_genome, Action, Env, Gene};
-use lander_report::model::{Flight, Frame, Scene, TrialRecord};
+use lander_report::model::{Frame, Recording, Scene, TrialRecord};
 
 /// The most frames a replay keeps; a longer flight keeps every k-th tick.
 pub const MAX_FRAMES: usize = 20_000;
@@ -24,7 +25,7 @@ pub fn scene(env: &Env) -> Scene {
 }
 
 /// Flies `genes` in `env`, keeping a frame per tick.
-pub fn trace(env: &Env, genes: &[Gene], title: String) -> (Flight, Outcome) {
+pub fn trace(env: &Env, genes: &[Gene], title: String) -> (Recording, Outcome) {
     let start = Frame {
         x: env.x0,
         y: env.world.height - env.world.start_drop,
@@ -40,13 +41,13 @@ pub fn trace(env: &Env, genes: &[Gene], title: String) -> (Flight, Outcome) {
             thrust: action == Action::Thrust,
         })
     });
-    let flight = Flight {
+    let recording = Recording {
         title,
         scene: scene(env),
         frames: thin(frames),
         safe: outcome.safe,
     };
-    (flight, outcome)
+    (recording, outcome)
 }
 
 /// Keeps at most [`MAX_FRAMES`] frames, always the first and the last.
@@ -64,14 +65,11 @@ fn thin(frames: Vec<Frame>) -> Vec<Frame> {
 /// The best landing of any GA trial: of the safe landings, the one eq. 1
 /// scores highest without the safe-landing bonus (nearest the pad centre,
 /// slowest, most upright). Without a safe landing, the fittest flight.
-pub fn best_landing(exp: &Experiment, records: &[TrialRecord]) -> Option<Flight> {
-    let mut best: Option<(bool, f64, Flight)> = None;
+pub fn best_landing(exp: &Experiment, records: &[TrialRecord]) -> Option<Recording> {
+    let mut best: Option<(bool, f64, Recording)> = None;
     for r in records {
         let Some(lander) = &r.best else { continue };
-        let Some(method) = crate::experiment::Task::of(r).map(|t| t.method) else {
-            continue;
-        };
-        let cfg = exp.config(method, r.trial);
+        let cfg = exp.config(r.method, r.trial);
         let Ok(genes) = parse_genome(&lander.genome, cfg.ga.max_duration) else {
             continue;
         };
@@ -81,23 +79,23 @@ pub fn best_landing(exp: &Experiment, records: &[TrialRecord]) -> Option<Flight>
             x0: r.x0,
             pad_x: lander.pad_x,
         };
-        let label = lander_report::plots::method_label(&r.method);
-        let (mut flight, outcome) = trace(&env, &genes, String::new());
+        let label = r.method.label();
+        let (mut recording, outcome) = trace(&env, &genes, String::new());
         let ending = if outcome.safe {
             "landed safely"
         } else {
             "crashed"
         };
-        flight.title = format!("{label}, trial {}: {ending}", r.trial);
+        recording.title = format!("{label}, trial {}: {ending}", r.trial);
         let score = fitness(&env, &outcome.state, outcome.n, false);
         let better = best
             .as_ref()
             .is_none_or(|(safe, s, _)| (outcome.safe, score) > (*safe, *s));
         if better {
-            best = Some((outcome.safe, score, flight));
+            best = Some((outcome.safe, score, recording));
         }
     }
-    best.map(|(_, _, flight)| flight)
+    best.map(|(_, _, recording)| recording)
 }
 
 #[cfg(test)]
@@ -110,12 +108,12 @@ mod tests {
         let cfg = RunConfig::default();
         let env = cfg.env(0);
         let genes = parse_genome("2:10,3:5", 30).unwrap();
-        let (flight, outcome) = trace(&env, &genes, "t".into());
-        assert_eq!(flight.frames.len(), outcome.ticks as usize + 1);
-        assert_eq!(flight.frames[0].y, 250.0);
-        assert!(flight.frames[1..=10].iter().all(|f| f.thrust));
-        assert!(!flight.frames[11].thrust);
-        let last = flight.frames.last().unwrap();
+        let (recording, outcome) = trace(&env, &genes, "t".into());
+        assert_eq!(recording.frames.len(), outcome.ticks as usize + 1);
+        assert_eq!(recording.frames[0].y, 250.0);
+        assert!(recording.frames[1..=10].iter().all(|f| f.thrust));
+        assert!(!recording.frames[11].thrust);
+        let last = recording.frames.last().unwrap();
         assert_eq!((last.x, last.y), (outcome.state.x, outcome.state.y));
     }
 

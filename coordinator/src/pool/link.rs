@@ -1,0 +1,117 @@
+//! The seam between the pool and its transports: how a [`Transport`] finds
+//! workers ([`Arrival`]) and the [`WorkerLink`] to each, the [`Answer`]s a
+//! link hands back, and the checks every answer passes before the pool
+//! sees it, whatever carried it.
+
+use super::ChunkTiming;
+use crate::evaluator::EvalError;
+use lander_protocol::wire::{
+    JobHeader, ResultHeader, Status, WireError, WireGene, PROTOCOL_VERSION,
+};
+use std::time::{Duration, Instant};
+
+/// A worker that announced itself.
+#[derive(Clone, Copy, Debug)]
+pub struct Arrival {
+    pub id: u64,
+    pub pid: u32,
+    pub version: u32,
+}
+
+/// One answered chunk, its body checked but not decoded.
+pub struct Answer {
+    pub chunk: usize,
+    pub body: Vec<u8>,
+    pub timing: ChunkTiming,
+}
+
+/// How a transport finds its workers and waits for them.
+pub trait Transport {
+    type Link: WorkerLink;
+    /// Workers that announced themselves since the last look.
+    fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError>;
+    fn connect(&mut self, arrival: &Arrival) -> Result<Self::Link, String>;
+    /// Workers the transport has seen go since the last look.
+    fn departures(&mut self) -> Vec<u64>;
+    /// Sleeps until a worker may have said something, at most `max`.
+    fn sleep(&mut self, max: Duration) -> Result<(), EvalError>;
+    /// What a spawned `lander-worker` needs on its command line to find
+    /// this transport.
+    fn worker_args(&self) -> Vec<String>;
+    /// How long, when the pool ends, to wait for workers told to leave to
+    /// be seen going, so that closing cannot overtake the message telling
+    /// them. Zero where a worker also learns it from the transport itself.
+    fn farewell(&self) -> Duration {
+        Duration::ZERO
+    }
+    /// Tidies up when the pool ends.
+    fn close(&mut self);
+}
+
+/// The coordinator's end of one worker: the chunks it is working on.
+pub trait WorkerLink {
+    fn id(&self) -> u64;
+    fn pid(&self) -> u32;
+    /// True while the worker can queue another chunk.
+    fn has_room(&self) -> bool;
+    fn is_broken(&self) -> bool;
+    fn deadline(&self) -> Option<Instant>;
+    /// Gives up on the chunks in flight, returning them.
+    fn abandon(&mut self) -> Vec<usize>;
+    /// Chunks sent and not yet answered.
+    fn in_flight(&self) -> usize;
+    /// Takes back the last chunk queued, one the worker has not started,
+    /// so that an idle worker can run it; `None` where the transport cannot
+    /// tell the worker to skip it, since it would then be flown twice.
+    fn take_back(&mut self) -> Option<usize> {
+        None
+    }
+    /// Sends `genes` under `header` as the pool's chunk `chunk`; the worker
+    /// may not look until [`WorkerLink::notify`].
+    fn send(
+        &mut self,
+        header: JobHeader,
+        genes: &[WireGene],
+        chunk: usize,
+        deadline: Option<Duration>,
+    ) -> Result<(), String>;
+    /// Tells the worker about the chunks sent since the last call, where
+    /// the transport needs telling.
+    fn notify(&mut self) -> Result<(), String> {
+        Ok(())
+    }
+    /// Collects the answers that arrived, checked against the jobs they
+    /// answer but not yet decoded. An answer that fails its checks breaks
+    /// the link and is reported beside the good ones; the chunks still in
+    /// flight, the refused one among them, are then run elsewhere.
+    fn poll(&mut self) -> (Vec<Answer>, Option<String>);
+    /// Marks the link unusable, for an answer the caller refused.
+    fn break_off(&mut self);
+    /// Tells the worker the run is over.
+    fn shut_down(&self);
+}
+
+pub(super) fn overdue(link: &impl WorkerLink, now: Instant) -> bool {
+    link.deadline().is_some_and(|d| now >= d)
+}
+
+/// Checks a response against the job it answers and returns its body.
+pub(super) fn check(job_id: u64, h: &ResultHeader, body: &[u8]) -> Result<Vec<u8>, String> {
+    if h.version != PROTOCOL_VERSION {
+        return Err(WireError::Version { got: h.version }.to_string());
+    }
+    if h.job_id != job_id {
+        return Err(format!(
+            "answer to job {} while job {job_id} was asked",
+            h.job_id
+        ));
+    }
+    match Status::from_code(h.status) {
+        Some(Status::Done) => Ok(body.to_vec()),
+        Some(status) => Err(format!(
+            "the worker refused the job ({status:?}): {}",
+            String::from_utf8_lossy(body)
+        )),
+        None => Err(format!("unknown status {}", h.status)),
+    }
+}

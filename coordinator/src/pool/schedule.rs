@@ -1,0 +1,231 @@
+//! Getting a generation's chunks flown: how a generation is cut
+//! (`chunk_ranges`, largest first), and [`Pool::run_chunks`]'s loop of
+//! collecting answers, handing out what is queued round-robin
+//! (`Pool::dispatch`), taking back from a busy worker for an idle one
+//! (`Pool::rebalance`), and only then decoding.
+
+use super::{Answer, Pool, Transport, WorkerLink};
+use crate::evaluator::EvalError;
+use lander_protocol::wire::{JobHeader, WireGene};
+use std::collections::VecDeque;
+use std::ops::Range;
+
+/// Splits `n` genomes into about `parts` contiguous chunks, largest first,
+/// for `workers` workers. The chunks are dealt round-robin, so each round of
+/// them is smaller than the last (with four chunks each, 4, 3, 2 and 1
+/// tenths of a worker's share): a worker that finishes early then waits
+/// for a small chunk rather than a large one, and the chunk it takes back
+/// from a busy worker is small too. Measured against equal chunks, 28
+/// alternated `lander bench` runs: ipc efficiency better in 18, scaling in 19.
+pub(super) fn chunk_ranges(n: usize, parts: usize, workers: usize) -> Vec<Range<usize>> {
+    let (parts, workers) = (parts.clamp(1, n.max(1)), workers.max(1));
+    let rounds = parts.div_ceil(workers);
+    let weights: Vec<usize> = (0..parts).map(|j| rounds - j / workers).collect();
+    let total: usize = weights.iter().sum();
+    let mut ranges = Vec::with_capacity(parts);
+    let (mut weight, mut start) = (0, 0);
+    for w in weights {
+        weight += w;
+        let end = (n * weight + total / 2) / total;
+        if end > start {
+            ranges.push(start..end);
+            start = end;
+        }
+    }
+    ranges
+}
+
+/// One chunk for the pool: its header (the job id is filled in each time
+/// it is sent), its genes, and whether the pool's deadline applies to it.
+pub struct Chunk {
+    pub header: JobHeader,
+    pub genes: Vec<WireGene>,
+    /// A whole Q(λ) trial may rightly take minutes, so only evaluation
+    /// chunks have deadlines; a dead trainer is still found by its exit or
+    /// its node's death.
+    pub timed: bool,
+}
+
+impl<T: Transport> Pool<T> {
+    /// Chunks moved so far from a busy worker to an idle one.
+    pub fn taken_back(&self) -> u64 {
+        self.taken_back
+    }
+
+    /// Runs every chunk on the workers and returns the answers in chunk
+    /// order. `decode` checks and decodes the answer to chunk `i`; an
+    /// answer it refuses costs its worker the link, and the chunk runs
+    /// elsewhere.
+    pub fn run_chunks<R>(
+        &mut self,
+        chunks: &[Chunk],
+        decode: impl Fn(usize, &[u8]) -> Result<R, String>,
+        mut finished: impl FnMut(usize, &R),
+    ) -> Result<Vec<R>, EvalError> {
+        let mut todo: VecDeque<usize> = (0..chunks.len()).collect();
+        let mut done: Vec<Option<R>> = (0..chunks.len()).map(|_| None).collect();
+        // Chunks with an answer in hand, decoded or not.
+        let mut answered = vec![false; chunks.len()];
+        let mut remaining = chunks.len();
+        while remaining > 0 {
+            if self.opts.stop.asked() {
+                return Err(EvalError::Interrupted);
+            }
+            self.accept()?;
+            self.reap(&mut todo)?;
+            let fresh = self.collect(&mut answered);
+            self.drop_links(&mut todo, |l| l.is_broken(), "disconnected");
+            // A worker that ran dry gets more before anything is decoded:
+            // decoding can wait, an idle worker should not.
+            todo.retain(|&c| !answered[c]);
+            self.rebalance(chunks, &mut todo);
+            self.dispatch(chunks, &mut todo);
+            let mut refused = false;
+            for (worker, a) in fresh {
+                match decode(a.chunk, &a.body) {
+                    Ok(value) => {
+                        finished(a.chunk, &value);
+                        done[a.chunk] = Some(value);
+                        remaining -= 1;
+                    }
+                    Err(e) => {
+                        (self.say)(&format!("refusing a result from worker {worker:016x}: {e}"));
+                        for link in self.links.iter_mut().filter(|l| l.id() == worker) {
+                            link.break_off();
+                        }
+                        answered[a.chunk] = false;
+                        todo.push_front(a.chunk);
+                        refused = true;
+                    }
+                }
+            }
+            self.drop_links(&mut todo, |l| l.is_broken(), "disconnected");
+            if remaining == 0 {
+                break;
+            }
+            if self.links.is_empty() && self.children.is_empty() && self.opts.spawn > 0 {
+                return Err(EvalError::NoWorkers {
+                    respawns: self.opts.max_respawns,
+                });
+            }
+            self.tell_waiting();
+            // A refused chunk goes out again at once, not after a sleep.
+            if !refused {
+                self.sleep()?;
+            }
+        }
+        Ok(done.into_iter().flatten().collect())
+    }
+
+    /// The answers that arrived, each with the worker that gave it, to
+    /// chunks not answered before (a chunk run twice keeps its first
+    /// answer); checked, not yet decoded.
+    fn collect(&mut self, answered: &mut [bool]) -> Vec<(u64, Answer)> {
+        let mut fresh = Vec::new();
+        for link in &mut self.links {
+            let (answers, refused) = link.poll();
+            if let Some(e) = refused {
+                (self.say)(&format!(
+                    "refusing a result from worker {:016x}: {e}",
+                    link.id()
+                ));
+            }
+            for a in answers {
+                if let Some(t) = &mut self.timings {
+                    t.push(a.timing);
+                }
+                if !std::mem::replace(&mut answered[a.chunk], true) {
+                    fresh.push((link.id(), a));
+                }
+            }
+        }
+        fresh
+    }
+
+    /// Once nothing is left to hand out, gives each idle worker the last
+    /// queued chunk of the worker with the longest backlog. Chunks of one
+    /// generation cost unevenly (one lander crashes at once, another flies
+    /// its whole plan), so without this a worker that drew cheap chunks
+    /// would wait for one that drew dear ones.
+    pub(super) fn rebalance(&mut self, chunks: &[Chunk], todo: &mut VecDeque<usize>) {
+        if !todo.is_empty() {
+            return;
+        }
+        for idle in 0..self.links.len() {
+            if self.links[idle].in_flight() > 0 || !self.links[idle].has_room() {
+                continue;
+            }
+            // Two or more in flight: one being flown, the last one queued.
+            let backlog = self
+                .links
+                .iter_mut()
+                .filter(|l| l.in_flight() >= 2)
+                .max_by_key(|l| l.in_flight());
+            let Some(chunk) = backlog.and_then(|l| l.take_back()) else {
+                break;
+            };
+            self.taken_back += 1;
+            self.hand(idle, chunks, chunk, todo);
+        }
+    }
+
+    /// Sends queued chunks to workers with room, one per worker per pass,
+    /// so that a generation of few chunks is spread over every worker
+    /// rather than queued at the first. Workers are told after the first
+    /// pass, so that their waking up overlaps the rest of the hand-out, and
+    /// again at the end.
+    pub(super) fn dispatch(&mut self, chunks: &[Chunk], todo: &mut VecDeque<usize>) {
+        let mut sent = true;
+        let mut pass = 0;
+        while sent && !todo.is_empty() {
+            if pass == 1 {
+                self.notify_all();
+            }
+            pass += 1;
+            sent = false;
+            for i in 0..self.links.len() {
+                if !self.links[i].has_room() {
+                    continue;
+                }
+                let Some(chunk) = todo.pop_front() else { break };
+                sent |= self.hand(i, chunks, chunk, todo);
+            }
+        }
+        self.notify_all();
+    }
+
+    /// Sends chunk `chunk` to link `i` under a fresh job id; if it cannot
+    /// be sent, the chunk goes back at the head of `todo`.
+    fn hand(
+        &mut self,
+        i: usize,
+        chunks: &[Chunk],
+        chunk: usize,
+        todo: &mut VecDeque<usize>,
+    ) -> bool {
+        let mut header = chunks[chunk].header;
+        header.job_id = self.next_job;
+        self.next_job += 1;
+        let deadline = chunks[chunk].timed.then_some(self.opts.deadline);
+        let link = &mut self.links[i];
+        match link.send(header, &chunks[chunk].genes, chunk, deadline) {
+            Ok(()) => true,
+            Err(e) => {
+                (self.say)(&format!("cannot send to worker {:016x}: {e}", link.id()));
+                todo.push_front(chunk);
+                false
+            }
+        }
+    }
+
+    /// Tells every worker about the chunks sent to it since it was last
+    /// told.
+    fn notify_all(&mut self) {
+        for link in &mut self.links {
+            if let Err(e) = link.notify() {
+                // Its chunks go elsewhere when the broken link is dropped.
+                (self.say)(&format!("cannot notify worker {:016x}: {e}", link.id()));
+            }
+        }
+    }
+}

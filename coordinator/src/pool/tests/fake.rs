@@ -1,0 +1,152 @@
+//! A pool over made-up links: no processes, no transport.
+
+use crate::evaluator::EvalError;
+use crate::pool::{
+    Answer, Arrival, Chunk, ChunkTiming, Pool, PoolOptions, Say, Transport, WorkerLink, DEPTH,
+};
+use crate::stop::Stop;
+use lander_protocol::wire::{JobHeader, WireGene};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// Records what it is sent; with an `answer`, answers every chunk with it
+/// at the next poll, or, if it `fails_checks`, all but the last, whose
+/// answer fails the link's own checks and breaks it.
+pub struct Recorder {
+    pub id: u64,
+    pub chunks: Vec<usize>,
+    pub answer: Option<Vec<u8>>,
+    pub fails_checks: bool,
+    pub broken: bool,
+}
+
+impl Recorder {
+    pub fn holding(id: u64, chunks: Vec<usize>) -> Recorder {
+        Recorder {
+            id,
+            chunks,
+            answer: None,
+            fails_checks: false,
+            broken: false,
+        }
+    }
+}
+
+impl WorkerLink for Recorder {
+    fn id(&self) -> u64 {
+        self.id
+    }
+    fn pid(&self) -> u32 {
+        0
+    }
+    fn has_room(&self) -> bool {
+        self.chunks.len() < DEPTH && !self.broken
+    }
+    fn is_broken(&self) -> bool {
+        self.broken
+    }
+    fn deadline(&self) -> Option<Instant> {
+        None
+    }
+    fn abandon(&mut self) -> Vec<usize> {
+        std::mem::take(&mut self.chunks)
+    }
+    fn in_flight(&self) -> usize {
+        self.chunks.len()
+    }
+    fn take_back(&mut self) -> Option<usize> {
+        self.chunks.pop()
+    }
+    fn send(
+        &mut self,
+        _: JobHeader,
+        _: &[WireGene],
+        chunk: usize,
+        _: Option<Duration>,
+    ) -> Result<(), String> {
+        self.chunks.push(chunk);
+        Ok(())
+    }
+    fn poll(&mut self) -> (Vec<Answer>, Option<String>) {
+        let Some(body) = &self.answer else {
+            return (Vec::new(), None);
+        };
+        let timing = ChunkTiming {
+            worker: self.id,
+            sent_ns: 0,
+            read_ns: 0,
+            started_ns: 0,
+            finished_ns: 0,
+        };
+        let keep = usize::from(self.fails_checks && !self.chunks.is_empty());
+        let good = self.chunks.len() - keep;
+        let answers = self
+            .chunks
+            .drain(..good)
+            .map(|chunk| Answer {
+                chunk,
+                body: body.clone(),
+                timing,
+            })
+            .collect();
+        if keep == 0 {
+            return (answers, None);
+        }
+        // As a real link: the refused chunk stays in flight, to be put
+        // back when the broken link is dropped.
+        self.broken = true;
+        (answers, Some("answer to the wrong job".into()))
+    }
+    fn break_off(&mut self) {
+        self.broken = true;
+    }
+    fn shut_down(&self) {}
+}
+
+pub struct Nowhere;
+
+impl Transport for Nowhere {
+    type Link = Recorder;
+    fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError> {
+        Ok(Vec::new())
+    }
+    fn connect(&mut self, _: &Arrival) -> Result<Recorder, String> {
+        Err("no".into())
+    }
+    fn departures(&mut self) -> Vec<u64> {
+        Vec::new()
+    }
+    fn sleep(&mut self, _: Duration) -> Result<(), EvalError> {
+        Ok(())
+    }
+    fn worker_args(&self) -> Vec<String> {
+        Vec::new()
+    }
+    fn close(&mut self) {}
+}
+
+pub fn pool(links: Vec<Recorder>, say: Say) -> Pool<Nowhere> {
+    let opts = PoolOptions {
+        run_id: "t".into(),
+        spawn: 0,
+        worker_exe: PathBuf::new(),
+        chunks_per_worker: 1,
+        deadline: Duration::from_secs(1),
+        max_respawns: 0,
+        pin: false,
+        stop: Stop::new(),
+    };
+    let mut pool = Pool::with_transport(Nowhere, opts, say).unwrap();
+    pool.links = links;
+    pool
+}
+
+pub fn no_chunks(n: usize) -> Vec<Chunk> {
+    (0..n)
+        .map(|_| Chunk {
+            header: JobHeader::default(),
+            genes: Vec::new(),
+            timed: true,
+        })
+        .collect()
+}

@@ -1,0 +1,10 @@
+//! The pool's unit tests, one file per concern, over the fakes behind the
+//! [`Transport`](super::Transport) seam (`fake`): no processes, no
+//! transport, except where a test needs a real child process.
+
+mod answers;
+mod chunking;
+mod dispatch;
+mod fake;
+mod refusals;
+mod versions;

@@ -1,0 +1,72 @@
+//! `run_chunks` over links that answer at once, one of them with answers
+//! that fail to decode.
+
+use super::fake::{no_chunks, pool, Recorder};
+use std::sync::{Arc, Mutex};
+
+#[test]
+fn a_refused_answer_costs_its_worker_and_the_chunk_runs_elsewhere() {
+    let said = Arc::new(Mutex::new(Vec::<String>::new()));
+    let log = said.clone();
+    let links = [(7, b"garbage"), (8, b"fine!!!")]
+        .into_iter()
+        .map(|(id, body)| Recorder {
+            answer: Some(body.to_vec()),
+            ..Recorder::holding(id, Vec::new())
+        })
+        .collect();
+    let say = Box::new(move |m: &str| log.lock().unwrap().push(m.to_string()));
+    let mut pool = pool(links, say);
+    let decode = |i: usize, body: &[u8]| match body {
+        b"fine!!!" => Ok(i * 10),
+        _ => Err("does not decode".to_string()),
+    };
+    let mut seen = Vec::new();
+    let results = pool
+        .run_chunks(&no_chunks(6), decode, |i, _| seen.push(i))
+        .unwrap();
+    assert_eq!(results, [0, 10, 20, 30, 40, 50]);
+    seen.sort_unstable();
+    assert_eq!(seen, [0, 1, 2, 3, 4, 5], "each chunk finished once");
+    let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
+    assert_eq!(ids, [8], "the worker that answered badly is dropped");
+    assert!(pool.dropped.contains(&7));
+    let said = said.lock().unwrap();
+    assert!(
+        said.iter()
+            .any(|m| m.contains("0000000000000007") && m.contains("does not decode")),
+        "{said:?}"
+    );
+}
+
+#[test]
+fn a_link_that_fails_its_checks_keeps_its_good_answers() {
+    let links = [(7, true), (8, false)]
+        .into_iter()
+        .map(|(id, fails_checks)| Recorder {
+            answer: Some(b"fine".to_vec()),
+            fails_checks,
+            ..Recorder::holding(id, Vec::new())
+        })
+        .collect();
+    let mut pool = pool(links, Box::new(|_| ()));
+    pool.record_timings();
+    let mut seen = Vec::new();
+    let results = pool
+        .run_chunks(
+            &no_chunks(8),
+            |i, _| Ok::<_, String>(i),
+            |i, _| seen.push(i),
+        )
+        .unwrap();
+    assert_eq!(results, (0..8).collect::<Vec<_>>());
+    // Worker 7 was dealt four chunks and answered three well before the
+    // fourth failed: those three are not flown again.
+    let answers = pool.take_timings();
+    assert_eq!(answers.len(), 8, "no chunk flown twice");
+    assert_eq!(answers.iter().filter(|t| t.worker == 7).count(), 3);
+    seen.sort_unstable();
+    assert_eq!(seen, (0..8).collect::<Vec<_>>(), "each chunk finished once");
+    let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
+    assert_eq!(ids, [8]);
+}

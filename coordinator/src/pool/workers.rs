@@ -1,0 +1,233 @@
+//! The workers' lifecycle, as the pool sees it: starting the pool and its
+//! spawned workers (`spawn`), accepting the workers that announce
+//! themselves, waiting for them, reaping the ones that exit, leave or miss
+//! a deadline (their chunks go back in the queue, and spawned ones are
+//! replaced), sleeping between looks, and shutting everything down when
+//! the pool is dropped.
+
+use super::link::overdue;
+use super::spawn::Children;
+use super::{iceoryx, IpcPool, Pool, PoolOptions, Say, Transport, WorkerLink};
+use crate::evaluator::EvalError;
+use lander_protocol::wire::PROTOCOL_VERSION;
+use std::collections::{HashSet, VecDeque};
+use std::time::{Duration, Instant};
+
+/// How long the pool sleeps at most before looking after its workers.
+const SLICE: Duration = Duration::from_millis(25);
+
+impl IpcPool {
+    /// Opens the run's iceoryx2 services and, when asked to, spawns its
+    /// workers.
+    pub fn start(opts: PoolOptions, say: Say) -> Result<IpcPool, EvalError> {
+        let transport = iceoryx::Iceoryx::open(&opts.run_id)?;
+        Pool::with_transport(transport, opts, say)
+    }
+}
+
+impl<T: Transport> Pool<T> {
+    /// A pool over `transport` that spawns `opts.spawn` workers.
+    pub fn with_transport(transport: T, opts: PoolOptions, say: Say) -> Result<Pool<T>, EvalError> {
+        let mut pool = Pool {
+            children: Children::new(
+                opts.worker_exe.clone(),
+                opts.run_id.clone(),
+                transport.worker_args(),
+                opts.max_respawns,
+                cpus_for(&opts),
+            ),
+            transport,
+            links: Vec::new(),
+            dropped: HashSet::new(),
+            next_job: 0,
+            taken_back: 0,
+            told_waiting: false,
+            timings: None,
+            say,
+            opts,
+        };
+        for _ in 0..pool.opts.spawn {
+            pool.children.spawn()?;
+        }
+        Ok(pool)
+    }
+
+    /// Workers connected now.
+    pub fn workers(&self) -> usize {
+        self.links.len()
+    }
+
+    /// Waits until `n` workers have announced themselves.
+    pub fn wait_for_workers(&mut self, n: usize, patience: Duration) -> Result<(), EvalError> {
+        let end = Instant::now() + patience;
+        let mut todo = VecDeque::new();
+        while self.links.len() < n {
+            if self.opts.stop.asked() {
+                return Err(EvalError::Interrupted);
+            }
+            if Instant::now() >= end {
+                return Err(EvalError::WorkersLate {
+                    wanted: n,
+                    got: self.links.len(),
+                    secs: patience.as_secs(),
+                });
+            }
+            self.accept()?;
+            self.reap(&mut todo)?;
+            self.sleep()?;
+        }
+        Ok(())
+    }
+
+    /// Connects to workers that announced themselves since the last look.
+    pub(super) fn accept(&mut self) -> Result<(), EvalError> {
+        for w in self.transport.arrivals()? {
+            if self.dropped.contains(&w.id) || self.links.iter().any(|l| l.id() == w.id) {
+                continue;
+            }
+            if w.version != PROTOCOL_VERSION {
+                // One this pool started will never speak another version:
+                // the executables come from different builds, and none of
+                // its workers is of use.
+                if self.children.started(w.pid) {
+                    self.children.kill_all();
+                    return Err(EvalError::WorkerVersion {
+                        exe: self.opts.worker_exe.display().to_string(),
+                        got: w.version,
+                    });
+                }
+                (self.say)(&format!(
+                    "refusing worker {:016x} (pid {}): it speaks protocol version {}, this coordinator {}",
+                    w.id, w.pid, w.version, PROTOCOL_VERSION
+                ));
+                // It re-announces until served; say so once.
+                self.dropped.insert(w.id);
+                continue;
+            }
+            match self.transport.connect(&w) {
+                Ok(link) => self.links.push(link),
+                Err(e) => (self.say)(&format!("cannot reach worker {:016x}: {e}", w.id)),
+            }
+        }
+        Ok(())
+    }
+
+    /// Drops links whose process exited or whose node died, and replaces
+    /// spawned workers that are gone. Their chunks go back in `todo`.
+    pub(super) fn reap(&mut self, todo: &mut VecDeque<usize>) -> Result<(), EvalError> {
+        for pid in self.children.exited() {
+            let replaced = self.children.respawn()?;
+            (self.say)(&format!(
+                "worker process {pid} exited; {}",
+                if replaced {
+                    "starting another"
+                } else {
+                    "no respawns left"
+                }
+            ));
+            self.drop_links(todo, |l| l.pid() == pid, "exited");
+        }
+        let gone = self.transport.departures();
+        self.drop_links(todo, |l| gone.contains(&l.id()), "left");
+        let now = Instant::now();
+        self.drop_links(todo, |l| overdue(l, now), "missed its deadline");
+        Ok(())
+    }
+
+    /// Forgets the links `gone` picks, putting their chunks back first.
+    pub(super) fn drop_links(
+        &mut self,
+        todo: &mut VecDeque<usize>,
+        gone: impl Fn(&T::Link) -> bool,
+        why: &str,
+    ) {
+        let mut dropped = Vec::new();
+        self.links.retain_mut(|link| {
+            if !gone(link) {
+                return true;
+            }
+            let chunks = link.abandon();
+            for &chunk in chunks.iter().rev() {
+                todo.push_front(chunk);
+            }
+            // A worker we stop trusting is told to leave and, if we
+            // spawned it, killed (the next reap replaces it).
+            link.shut_down();
+            dropped.push((link.id(), link.pid(), !chunks.is_empty()));
+            false
+        });
+        for (id, pid, requeued) in dropped {
+            self.children.kill(pid);
+            self.dropped.insert(id);
+            let then = if requeued {
+                "; its chunks go to other workers"
+            } else {
+                ""
+            };
+            (self.say)(&format!("worker {id:016x} {why}{then}"));
+        }
+    }
+
+    /// Sleeps until a worker says something or the next deadline is due.
+    pub(super) fn sleep(&mut self) -> Result<(), EvalError> {
+        let until_deadline = self
+            .links
+            .iter()
+            .filter_map(|l| l.deadline())
+            .min()
+            .map(|d| d.saturating_duration_since(Instant::now()));
+        let slice = until_deadline.map_or(SLICE, |d| d.min(SLICE));
+        self.transport.sleep(slice)
+    }
+
+    pub(super) fn tell_waiting(&mut self) {
+        if self.links.is_empty() && self.opts.spawn == 0 && !self.told_waiting {
+            (self.say)(&format!(
+                "waiting for workers: start them with `lander-worker --run {}{}`",
+                self.opts.run_id,
+                self.transport
+                    .worker_args()
+                    .iter()
+                    .map(|a| format!(" {a}"))
+                    .collect::<String>()
+            ));
+            self.told_waiting = true;
+        }
+    }
+
+    /// Waits at most `grace` for every worker to be seen going.
+    fn await_leaving(&mut self, grace: Duration) {
+        let mut staying: HashSet<u64> = self.links.iter().map(WorkerLink::id).collect();
+        let end = Instant::now() + grace;
+        while !staying.is_empty() {
+            let left = end.saturating_duration_since(Instant::now());
+            if left.is_zero() || self.transport.sleep(left).is_err() {
+                break;
+            }
+            for id in self.transport.departures() {
+                staying.remove(&id);
+            }
+        }
+    }
+}
+
+impl<T: Transport> Drop for Pool<T> {
+    fn drop(&mut self) {
+        for link in &self.links {
+            link.shut_down();
+        }
+        self.await_leaving(self.transport.farewell());
+        self.children.stop_all();
+        self.transport.close();
+    }
+}
+
+/// The CPUs to pin `opts.spawn` workers to: one each, or none at all when
+/// pinning is off or there are fewer CPUs than workers.
+fn cpus_for(opts: &PoolOptions) -> Vec<usize> {
+    let cpus = lander_protocol::host::allowed_cpus();
+    if !opts.pin || opts.spawn == 0 || opts.spawn > cpus.len() {
+        return Vec::new();
+    }
+    cpus[..opts.spawn].to_vec()
+}
