@@ -6,7 +6,7 @@
 //! - [`evaluator`]: who flies a generation; in-process over threads.
 //! - [`pool`]: the evaluator pool over worker processes, reached over
 //!   iceoryx2 on this host or zenoh from any host.
-//! - [`bench`]: the throughput comparison behind `lander bench`.
+//! - [`bench`](mod@bench): the throughput comparison behind `lander bench`.
 //! - [`run_files`]: what a run writes: JSON lines, `best.json`, the summary.
 //! - [`experiment`]: many paired trials, resumable, with tables, plots and a report.
 //! - [`recording`]: genomes flown into Recordings for replays.
