@@ -1,10 +1,12 @@
 //! Simulated ticks per second of `fly` against the straightforward
-//! reference, the cost of one guided generation of 100 genomes, and Q(λ)
-//! decisions per second.
+//! reference, the cost of one guided generation of 100 genomes (against the
+//! same with each gene's branches flown one by one), and Q(λ) decisions
+//! per second.
 //!
 //! `cargo bench --workspace --bench flight`
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
+use lander_model::evaluate::evaluate_guided_one_by_one;
 use lander_model::learn::train;
 use lander_model::{evaluate, fly, reference};
 use lander_model::{Action, Env, Gene, GuideParams, LearnParams, Pass, Scoring, StreamKey, World};
@@ -84,6 +86,19 @@ fn guided_generation(c: &mut Criterion) {
             )
         });
     }
+    // The guided generation with each gene's four branches flown one after
+    // another: the baseline that flying them together is measured against.
+    group.bench_function("guided one by one", |b| {
+        b.iter_batched_ref(
+            || work.clone(),
+            |batch| {
+                for (i, (e, g)) in batch.iter_mut().enumerate() {
+                    black_box(evaluate_guided_one_by_one(e, &params, key, i as u64, g));
+                }
+            },
+            BatchSize::SmallInput,
+        )
+    });
     group.finish();
 }
 

@@ -1,9 +1,10 @@
 //! One genome under one method: what a worker does for each genome of a job.
 
-use crate::guide::guide_in_place;
-use crate::sim::{fly, Physics};
+use crate::guide::{guide_in_place, guide_in_place_one_by_one};
+use crate::sim::{fly, Flight, Physics};
 use crate::stream::streams;
 use crate::{Env, Evaluation, Gene, GuideParams, Pass, StreamKey};
+use rand_chacha::ChaCha8Rng;
 
 /// Evaluates `genes` in place. Under `Guided` the genes are first improved
 /// by the evolve pass, whose draws come from the stream of
@@ -24,16 +25,40 @@ pub fn evaluate(
                 simulated_ticks: u64::from(outcome.ticks),
             }
         }
-        Pass::Guide => {
-            let mut rng = key.rng(streams::guide(index));
-            let (mut flight, looked_ahead) = guide_in_place(env, guide, genes, &mut rng);
-            let n = flight.ticks;
-            flight.drift_to_end(&Physics::new(env));
-            let outcome = flight.outcome(env, n);
-            Evaluation {
-                outcome,
-                simulated_ticks: looked_ahead + u64::from(outcome.ticks - n),
-            }
-        }
+        Pass::Guide => guided(guide_in_place, env, guide, key, index, genes),
+    }
+}
+
+/// [`evaluate`] under [`Pass::Guide`], with the guided pass flying each
+/// gene's four branches one after another: the baseline of the benches.
+pub fn evaluate_guided_one_by_one(
+    env: &Env,
+    guide: &GuideParams,
+    key: StreamKey,
+    index: u64,
+    genes: &mut [Gene],
+) -> Evaluation {
+    guided(guide_in_place_one_by_one, env, guide, key, index, genes)
+}
+
+type GuidePass = fn(&Env, &GuideParams, &mut [Gene], &mut ChaCha8Rng) -> (Flight, u64);
+
+#[inline(always)]
+fn guided(
+    pass: GuidePass,
+    env: &Env,
+    guide: &GuideParams,
+    key: StreamKey,
+    index: u64,
+    genes: &mut [Gene],
+) -> Evaluation {
+    let mut rng = key.rng(streams::guide(index));
+    let (mut flight, looked_ahead) = pass(env, guide, genes, &mut rng);
+    let n = flight.ticks;
+    flight.drift_to_end(&Physics::new(env));
+    let outcome = flight.outcome(env, n);
+    Evaluation {
+        outcome,
+        simulated_ticks: looked_ahead + u64::from(outcome.ticks - n),
     }
 }

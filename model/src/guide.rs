@@ -17,15 +17,37 @@ pub fn guide_in_place(
     genes: &mut [Gene],
     rng: &mut impl Rng,
 ) -> (Flight, u64) {
+    guide_with(Flight::branch, env, params, genes, rng)
+}
+
+/// [`guide_in_place`] with each gene's four branches flown one after
+/// another ([`Flight::branch_one_by_one`]): the oracle of the property
+/// tests and the baseline of the benches.
+pub fn guide_in_place_one_by_one(
+    env: &Env,
+    params: &GuideParams,
+    genes: &mut [Gene],
+    rng: &mut impl Rng,
+) -> (Flight, u64) {
+    guide_with(Flight::branch_one_by_one, env, params, genes, rng)
+}
+
+type Brancher = fn(&Flight, &Physics, u32) -> ([Flight; 4], u64);
+
+#[inline(always)]
+fn guide_with(
+    branch: Brancher,
+    env: &Env,
+    params: &GuideParams,
+    genes: &mut [Gene],
+    rng: &mut impl Rng,
+) -> (Flight, u64) {
     let p = Physics::new(env);
     let mut flight = Flight::start(env);
     let mut simulated = 0u64;
     for gene in genes.iter_mut() {
-        let d = u32::from(gene.duration);
-        let mut options = [flight; 4];
-        for (option, a) in options.iter_mut().zip(Action::ALL) {
-            simulated += u64::from(option.run(&p, a, d));
-        }
+        let (options, flown) = branch(&flight, &p, u32::from(gene.duration));
+        simulated += flown;
         let best = best_action(env, params, &options);
         let chosen = &options[usize::from(best.index())];
         let safe = chosen.touched_down() && is_safe(env, &chosen.state);
@@ -148,6 +170,27 @@ mod tests {
             prop_assert_eq!(ev.outcome, fly(&e, &genes));
             let again = guide(&e, &GuideParams::default(), &genome, &mut key.rng(crate::stream::streams::guide(index)));
             prop_assert_eq!(again, genes);
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(1000))]
+
+        /// The pass with branches flown together equals the one-by-one
+        /// pass in every gene, tick count and bit of the flight.
+        #[test]
+        fn the_pass_equals_the_one_by_one_pass(
+            genome in arb_genome(), eps in 0.0f64..=1.0, seed in any::<u64>(),
+            x0 in 0.0f64..400.0, pad_x in 50.0f64..350.0,
+        ) {
+            let e = env(x0, pad_x);
+            let p = GuideParams { epsilon: eps, ..GuideParams::default() };
+            let (mut fast, mut slow) = (genome.clone(), genome);
+            let a = guide_in_place(&e, &p, &mut fast, &mut ChaCha8Rng::seed_from_u64(seed));
+            let b = guide_in_place_one_by_one(&e, &p, &mut slow, &mut ChaCha8Rng::seed_from_u64(seed));
+            prop_assert_eq!(fast, slow);
+            prop_assert_eq!((a.0.state, a.0.ticks, a.0.touched_down(), a.1),
+                            (b.0.state, b.0.ticks, b.0.touched_down(), b.1));
         }
     }
 

@@ -379,5 +379,7 @@ pub fn fly_traced(
     lander.outcome(env, n.unwrap_or(lander.ticks()))
 }
 
+mod branch;
+
 #[cfg(test)]
 mod tests;

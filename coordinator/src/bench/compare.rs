@@ -1,6 +1,6 @@
 //! The comparison behind `lander bench`: a warm-up, then rounds in which
-//! the modes take turns generation by generation, in an order that
-//! rotates, and the [`Report`]: each mode's figures, the [`Ratios`] between
+//! each mode flies the whole workload as one block, in an order that
+//! rotates from round to round, and the [`Report`]: each mode's figures, the [`Ratios`] between
 //! modes, and whether every mode's results agree.
 
 use super::mode::{Mode, ModeKind, ModeReport};
@@ -74,10 +74,11 @@ pub struct Report {
 
 /// Runs `work` over `modes` as `plan` says and reports on it. A short
 /// warm-up (the first step, by every mode) is left out of every figure;
-/// then, round after round, every generation is flown by every mode in
-/// turn, the order rotating by one each generation, so that noise hits
-/// all modes alike. Only time inside the evaluator counts; start-up does
-/// not.
+/// then, round after round, each mode flies every generation back to back
+/// as one block, as a run does, so that its threads or workers stay warm
+/// between generations; the order of the blocks rotates by one each round,
+/// so that noise hits all modes alike. Only time inside the evaluator
+/// counts; start-up does not.
 pub fn run(work: &Workload, modes: &mut [Mode], plan: &Plan) -> Result<Report, EvalError> {
     if !work.steps.is_empty() {
         for m in modes.iter_mut() {
@@ -86,13 +87,12 @@ pub fn run(work: &Workload, modes: &mut [Mode], plan: &Plan) -> Result<Report, E
         }
     }
     let k = modes.len();
-    let mut turn = 0;
-    for _ in 0..plan.rounds {
-        for g in 0..work.steps.len() {
-            for i in 0..k {
-                modes[(i + turn) % k].step(work, g)?;
+    for round in 0..plan.rounds {
+        for i in 0..k {
+            let mode = &mut modes[(i + round) % k];
+            for g in 0..work.steps.len() {
+                mode.step(work, g)?;
             }
-            turn += 1;
         }
         modes.iter_mut().for_each(Mode::end_round);
     }
@@ -216,7 +216,7 @@ mod tests {
     }
 
     #[test]
-    fn modes_take_turns_in_an_order_that_rotates_after_a_warm_up() {
+    fn modes_fly_in_blocks_in_an_order_that_rotates_after_a_warm_up() {
         let log = Log::default();
         let mut modes: Vec<Mode> = ["a", "b", "c"]
             .into_iter()
@@ -229,13 +229,13 @@ mod tests {
         let work = workload(2, 3, 1);
         run(&work, &mut modes, &plan(2, 2)).unwrap();
         // Generations are numbered from 1; the warm-up flies the first.
+        // Then each mode flies both generations as a block, and the
+        // blocks' order moves on by one in the second round.
         #[rustfmt::skip]
         let want: Vec<(&str, u64)> = vec![
             ("a", 1), ("b", 1), ("c", 1),
-            ("a", 1), ("b", 1), ("c", 1),
-            ("b", 2), ("c", 2), ("a", 2),
-            ("c", 1), ("a", 1), ("b", 1),
-            ("a", 2), ("b", 2), ("c", 2),
+            ("a", 1), ("a", 2), ("b", 1), ("b", 2), ("c", 1), ("c", 2),
+            ("b", 1), ("b", 2), ("c", 1), ("c", 2), ("a", 1), ("a", 2),
         ];
         assert_eq!(*log.borrow(), want);
     }

@@ -1,6 +1,7 @@
 //! `lander bench`: one fixed, seeded workload evaluated in several modes.
-//! The modes take turns generation by generation, in an order that rotates,
-//! so machine noise falls on all of them alike. Only time inside `evaluate`
+//! Each mode flies the workload as one warm block per round, the blocks'
+//! order rotating from round to round, so machine noise falls on all of
+//! them alike. Only time inside `evaluate`
 //! counts; start-up does not.
 //!
 //! - [`workload`]: the work, the same for every mode and round.

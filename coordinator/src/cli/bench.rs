@@ -48,7 +48,8 @@ pub struct BenchArgs {
     #[arg(long, value_name = "N", default_value_t = 1,
           value_parser = clap::value_parser!(u16).range(1..=1024))]
     in_flight: u16,
-    /// Rounds; each round runs every mode once, in a rotating order.
+    /// Rounds; in each, every mode flies all the generations back to back,
+    /// the modes' order rotating from round to round.
     #[arg(long, default_value_t = 5)]
     rounds: usize,
     #[arg(long, default_value_t = 1)]

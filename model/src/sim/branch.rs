@@ -1,0 +1,224 @@
+//! The guided pass's four branches, flown together.
+//!
+//! From one state the pass flies each of the four actions for the same
+//! number of ticks (SPEC §4). Rotating and drifting never touch the
+//! velocity, so those three branches move the centre along one and the same
+//! path, bit for bit: the same additions on the same numbers, in the same
+//! order. Only their rotations differ, and with them where each hull
+//! touches down. [`Flight::branch`] therefore flies two paths instead of
+//! four: the shared one, turning two rotations beside it, and thrust's own,
+//! in one loop so that the two dependency chains overlap. Each branch stops
+//! at its own touchdown, exactly where flying it alone stops.
+
+use super::{Flight, Physics};
+use crate::{Action, State};
+use std::f64::consts::{PI, TAU};
+
+/// The branches that share the drifting path, by their index in
+/// [`Action::ALL`].
+const SHARED: [usize; 3] = [
+    Action::RotateLeft as usize,
+    Action::RotateRight as usize,
+    Action::Drift as usize,
+];
+const LEFT: usize = Action::RotateLeft as usize;
+const RIGHT: usize = Action::RotateRight as usize;
+const THRUST: usize = Action::Thrust as usize;
+
+/// [`Flight::finish_tick`]'s motion: gravity, move, wrap.
+#[inline(always)]
+fn step(p: &Physics, s: &mut State) {
+    s.vy += -p.gravity;
+    s.x += s.vx;
+    s.y += s.vy;
+    if s.x > p.width {
+        s.x = 0.0;
+    }
+    if s.x < 0.0 {
+        s.x = p.width;
+    }
+}
+
+impl Flight {
+    /// The flights of the four actions from here, in [`Action::ALL`]'s
+    /// order, each flown up to `ticks` ticks exactly as [`Flight::run`]
+    /// flies it; and the ticks the four flew in all.
+    pub fn branch(&self, p: &Physics, ticks: u32) -> ([Flight; 4], u64) {
+        let mut lanes = [*self; 4];
+        if self.touched_down {
+            return (lanes, 0);
+        }
+        let ticks = ticks.min(p.max_ticks.saturating_sub(self.ticks));
+        if ticks == 0 {
+            return (lanes, 0);
+        }
+        // The paths and rotations live in locals, not in `lanes`, so that
+        // the chains of additions stay in registers; a lane is written
+        // only where its hull is tested and at the end.
+        lanes[THRUST].refresh_trig();
+        let (push_x, push_y) = (p.thrust * lanes[THRUST].sin, p.thrust * lanes[THRUST].cos);
+        let mut pushed = self.state;
+        let mut path = self.state;
+        let (mut rot_left, mut rot_right) = (self.state.rot, self.state.rot);
+        let mut alive = [true; 4];
+        let mut flown = [ticks; 4];
+        for k in 1..=ticks {
+            if alive[THRUST] {
+                // Flight::thrust, then Flight::finish_tick's motion.
+                pushed.vx += push_x;
+                pushed.vy += push_y;
+                step(p, &mut pushed);
+                if pushed.y < p.clear_y && lanes[THRUST].lands_at(p, &pushed, self.ticks + k) {
+                    alive[THRUST] = false;
+                    flown[THRUST] = k;
+                }
+            }
+            if alive[LEFT] {
+                rot_left -= p.rotation_step;
+                if rot_left < -PI {
+                    rot_left += TAU;
+                }
+            }
+            if alive[RIGHT] {
+                rot_right += p.rotation_step;
+                if rot_right > TAU {
+                    rot_right -= TAU;
+                }
+            }
+            step(p, &mut path);
+            if path.y < p.clear_y {
+                lanes[LEFT].state.rot = rot_left;
+                lanes[RIGHT].state.rot = rot_right;
+                for i in SHARED {
+                    if alive[i] && lanes[i].lands_at(p, &path, self.ticks + k) {
+                        alive[i] = false;
+                        flown[i] = k;
+                    }
+                }
+            }
+            if alive == [false; 4] {
+                break;
+            }
+        }
+        lanes[LEFT].state.rot = rot_left;
+        lanes[RIGHT].state.rot = rot_right;
+        if alive[THRUST] {
+            lanes[THRUST].move_to(&pushed, self.ticks + ticks);
+        }
+        for i in SHARED {
+            if alive[i] {
+                lanes[i].move_to(&path, self.ticks + ticks);
+            }
+        }
+        (lanes, flown.iter().map(|&f| u64::from(f)).sum())
+    }
+
+    /// Puts this branch at `path`'s position and velocity after `ticks`
+    /// ticks, keeping its own rotation, and says whether its hull is down
+    /// there.
+    #[inline(always)]
+    fn lands_at(&mut self, p: &Physics, path: &State, ticks: u32) -> bool {
+        self.move_to(path, ticks);
+        self.touched_down = self.hull_below_ground(p);
+        self.touched_down
+    }
+
+    /// `path`'s position and velocity, with this branch's own rotation.
+    #[inline(always)]
+    fn move_to(&mut self, path: &State, ticks: u32) {
+        let rot = self.state.rot;
+        self.state = *path;
+        self.state.rot = rot;
+        self.ticks = ticks;
+    }
+}
+
+impl Flight {
+    /// [`Flight::branch`] as four [`Flight::run`]s one after another: the
+    /// oracle that `branch` must equal in every bit, and the baseline of
+    /// the benches.
+    pub fn branch_one_by_one(&self, p: &Physics, ticks: u32) -> ([Flight; 4], u64) {
+        let mut lanes = [*self; 4];
+        let mut flown = 0;
+        for (lane, action) in lanes.iter_mut().zip(Action::ALL) {
+            flown += u64::from(lane.run(p, action, ticks));
+        }
+        (lanes, flown)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_env;
+    use proptest::prelude::*;
+
+    /// Every lane of `branch` equals the same lane flown alone, in every
+    /// bit, and so do the ticks flown.
+    fn same_as_one_by_one(
+        state: State,
+        ticks_so_far: u32,
+        ticks: u32,
+    ) -> Result<(), TestCaseError> {
+        let e = test_env(200.0, 100.0);
+        let p = Physics::new(&e);
+        let from = Flight::at(state, ticks_so_far);
+        let (fast, flown) = from.branch(&p, ticks);
+        let (slow, flown_alone) = from.branch_one_by_one(&p, ticks);
+        for (a, (f, s)) in Action::ALL.into_iter().zip(fast.iter().zip(&slow)) {
+            prop_assert_eq!(f.state, s.state, "{:?}", a);
+            prop_assert_eq!(f.ticks, s.ticks, "{:?}", a);
+            prop_assert_eq!(f.touched_down(), s.touched_down(), "{:?}", a);
+        }
+        prop_assert_eq!(flown, flown_alone);
+        Ok(())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(3000))]
+
+        #[test]
+        fn branches_flown_together_equal_branches_flown_alone(
+            x in 0.0f64..400.0, y in 40.0f64..300.0,
+            vx in -3.0f64..3.0, vy in -3.0f64..3.0, rot in -PI..TAU,
+            ticks in 0u32..=40,
+        ) {
+            same_as_one_by_one(State { x, y, vx, vy, rot }, 0, ticks)?;
+        }
+
+        /// Low over the ground, where the branches touch down on different
+        /// ticks, and spinning, where the hull bound works hardest.
+        #[test]
+        fn branches_touching_down_apart_equal_branches_flown_alone(
+            x in 0.0f64..400.0, y in 52.0f64..80.0,
+            vx in -0.5f64..0.5, vy in -1.0f64..0.5, rot in -PI..TAU,
+            ticks in 1u32..=30,
+        ) {
+            same_as_one_by_one(State { x, y, vx, vy, rot }, 0, ticks)?;
+        }
+
+        /// Near the tick guard, every branch stops at it.
+        #[test]
+        fn branches_stop_at_the_tick_guard_as_alone(
+            y in 100.0f64..300.0, rot in -PI..TAU, left in 0u32..10, ticks in 0u32..=30,
+        ) {
+            let max = test_env(0.0, 0.0).world.max_ticks;
+            let state = State { x: 200.0, y, vx: 0.3, vy: 0.0, rot };
+            same_as_one_by_one(state, max - left, ticks)?;
+        }
+    }
+
+    #[test]
+    fn a_flight_that_touched_down_branches_nowhere() {
+        let e = test_env(200.0, 100.0);
+        let p = Physics::new(&e);
+        let mut down = Flight::start(&e);
+        down.drift_to_end(&p);
+        assert!(down.touched_down());
+        let (lanes, flown) = down.branch(&p, 30);
+        assert_eq!(flown, 0);
+        assert!(lanes
+            .iter()
+            .all(|l| l.state == down.state && l.ticks == down.ticks));
+    }
+}
