@@ -39,6 +39,25 @@ fn step(p: &Physics, s: &mut State) {
     }
 }
 
+/// Tests the hulls of the branches on the shared path, `k` ticks into the
+/// branch from `start` ticks; a branch down there stops.
+#[inline(never)]
+fn land_shared(
+    p: &Physics,
+    lanes: &mut [Flight; 4],
+    alive: &mut [bool; 4],
+    flown: &mut [u32; 4],
+    path: State,
+    (start, k): (u32, u32),
+) {
+    for i in SHARED {
+        if alive[i] && lanes[i].lands_at(p, path, start + k) {
+            alive[i] = false;
+            flown[i] = k;
+        }
+    }
+}
+
 impl Flight {
     /// The flights of the four actions from here, in [`Action::ALL`]'s
     /// order, each flown up to `ticks` ticks exactly as [`Flight::run`]
@@ -68,7 +87,7 @@ impl Flight {
                 pushed.vx += push_x;
                 pushed.vy += push_y;
                 step(p, &mut pushed);
-                if pushed.y < p.clear_y && lanes[THRUST].lands_at(p, &pushed, self.ticks + k) {
+                if pushed.y < p.clear_y && lanes[THRUST].lands_at(p, pushed, self.ticks + k) {
                     alive[THRUST] = false;
                     flown[THRUST] = k;
                 }
@@ -89,12 +108,7 @@ impl Flight {
             if path.y < p.clear_y {
                 lanes[LEFT].state.rot = rot_left;
                 lanes[RIGHT].state.rot = rot_right;
-                for i in SHARED {
-                    if alive[i] && lanes[i].lands_at(p, &path, self.ticks + k) {
-                        alive[i] = false;
-                        flown[i] = k;
-                    }
-                }
+                land_shared(p, &mut lanes, &mut alive, &mut flown, path, (self.ticks, k));
             }
             if alive == [false; 4] {
                 break;
@@ -103,11 +117,11 @@ impl Flight {
         lanes[LEFT].state.rot = rot_left;
         lanes[RIGHT].state.rot = rot_right;
         if alive[THRUST] {
-            lanes[THRUST].move_to(&pushed, self.ticks + ticks);
+            lanes[THRUST].move_to(pushed, self.ticks + ticks);
         }
         for i in SHARED {
             if alive[i] {
-                lanes[i].move_to(&path, self.ticks + ticks);
+                lanes[i].move_to(path, self.ticks + ticks);
             }
         }
         (lanes, flown.iter().map(|&f| u64::from(f)).sum())
@@ -116,8 +130,10 @@ impl Flight {
     /// Puts this branch at `path`'s position and velocity after `ticks`
     /// ticks, keeping its own rotation, and says whether its hull is down
     /// there.
-    #[inline(always)]
-    fn lands_at(&mut self, p: &Physics, path: &State, ticks: u32) -> bool {
+    // Out of line: its caller's loop then keeps only the paths in
+    // registers, not every lane's cached trigonometry and hull bound.
+    #[inline(never)]
+    fn lands_at(&mut self, p: &Physics, path: State, ticks: u32) -> bool {
         self.move_to(path, ticks);
         self.touched_down = self.hull_below_ground(p);
         self.touched_down
@@ -125,9 +141,9 @@ impl Flight {
 
     /// `path`'s position and velocity, with this branch's own rotation.
     #[inline(always)]
-    fn move_to(&mut self, path: &State, ticks: u32) {
+    fn move_to(&mut self, path: State, ticks: u32) {
         let rot = self.state.rot;
-        self.state = *path;
+        self.state = path;
         self.state.rot = rot;
         self.ticks = ticks;
     }
