@@ -17,7 +17,8 @@ pub type Log = Rc<RefCell<Vec<(&'static str, u64)>>>;
 pub fn workload(generations: u64, population: usize, in_flight: usize) -> Workload {
     let mut cfg = RunConfig::default();
     cfg.ga.population = population;
-    Workload::new(&cfg, Pass::Guide, generations, in_flight)
+    cfg.ga.elites = cfg.ga.elites.min(population);
+    Workload::new(&cfg, Pass::Guide, Some(generations), in_flight).expect("a GA workload")
 }
 
 pub struct Fake {

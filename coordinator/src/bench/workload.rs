@@ -1,15 +1,21 @@
-//! The work `lander bench` measures: seeded random generations, the same
-//! for every mode and every round.
+//! The work `lander bench` measures: the generations of real trials, the
+//! same for every mode and every round.
 
 use crate::config::RunConfig;
-use crate::ga::{random_population, Genome};
-use lander_model::stream::streams;
-use lander_model::{Env, Pass, StreamKey};
+use crate::ga::Genome;
+use crate::trial::{TrialError, TrialRun};
+use lander_model::{evaluate, Env, Pass, StreamKey};
+use rayon::prelude::*;
 
-/// The generations every mode evaluates: random populations keyed by the
-/// configuration's seed, so every mode and every round sees the same work.
-/// A step is one generation of each of `in_flight` trials, evaluated
-/// together as `lander experiment` steps the trials it has in flight.
+/// The generations every mode evaluates: those a real run evaluates, so
+/// that the bench measures what users get. Each trial in flight is flown
+/// in-process, once, before any mode starts, and every generation's
+/// genomes are kept as they were before evaluation; a trial that lands
+/// gives way to the next trial number. The work is therefore the same for
+/// every mode and every round, and as costly, genome for genome, as a
+/// run's. A step is one generation of each of `in_flight` trials,
+/// evaluated together as `lander experiment` steps the trials it has in
+/// flight.
 pub struct Workload {
     pub cfg: RunConfig,
     pub method: Pass,
@@ -27,38 +33,191 @@ pub struct Population {
 
 impl Workload {
     /// `generations` steps of `in_flight` trials, numbered from the
-    /// configuration's trial on.
-    pub fn new(cfg: &RunConfig, method: Pass, generations: u64, in_flight: usize) -> Workload {
-        let trials: Vec<RunConfig> = (0..in_flight as u64)
-            .map(|t| RunConfig {
-                trial: cfg.trial + t,
-                ..cfg.clone()
-            })
-            .collect();
-        let steps = (1..=generations)
-            .map(|g| {
-                trials
-                    .iter()
-                    .map(|trial| {
-                        let key = StreamKey::new(trial.seed, trial.trial, 0, g);
-                        Population {
-                            env: trial.env(0),
-                            key,
-                            genomes: random_population(&trial.ga, &mut key.rng(streams::OPERATORS)),
-                        }
-                    })
-                    .collect()
-            })
-            .collect();
-        Workload {
-            cfg: cfg.clone(),
+    /// configuration's trial on; `None` takes as many steps as the first
+    /// trial flies generations, so that with one trial in flight the
+    /// workload is exactly `lander run`'s.
+    pub fn new(
+        cfg: &RunConfig,
+        method: Pass,
+        generations: Option<u64>,
+        in_flight: usize,
+    ) -> Result<Workload, TrialError> {
+        let cfg = RunConfig {
+            method: method.method(),
+            ..cfg.clone()
+        };
+        let mut flights = (0..in_flight as u64)
+            .map(|t| Flown::new(&cfg, t, in_flight as u64))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut steps = Vec::new();
+        let first = cfg.trial;
+        loop {
+            let done = match generations {
+                Some(n) => steps.len() as u64 >= n,
+                None => flights.first().is_none_or(|f| f.finished(first)),
+            };
+            if done {
+                break;
+            }
+            let step = flights
+                .iter_mut()
+                .map(Flown::next)
+                .collect::<Result<Vec<_>, _>>()?;
+            steps.push(step);
+        }
+        Ok(Workload {
+            cfg,
             method,
             in_flight,
             steps,
-        }
+        })
     }
 
     pub fn genomes(&self) -> usize {
         self.steps.iter().flatten().map(|p| p.genomes.len()).sum()
+    }
+}
+
+/// One slot of the trials in flight: the trial it is flying, and which
+/// trial comes next when that one ends.
+struct Flown {
+    cfg: RunConfig,
+    run: TrialRun,
+    /// Trial numbers this slot takes, `stride` apart.
+    stride: u64,
+}
+
+impl Flown {
+    fn new(cfg: &RunConfig, slot: u64, stride: u64) -> Result<Flown, TrialError> {
+        let cfg = RunConfig {
+            trial: cfg.trial.wrapping_add(slot),
+            ..cfg.clone()
+        };
+        Ok(Flown {
+            run: TrialRun::new(&cfg)?,
+            cfg,
+            stride,
+        })
+    }
+
+    /// Whether this slot's trial `trial` has ended.
+    fn finished(&self, trial: u64) -> bool {
+        self.cfg.trial != trial || self.run.result().is_some()
+    }
+
+    /// The next generation a run flies, as it stands before evaluation;
+    /// then evaluates it as a run would, and moves on.
+    fn next(&mut self) -> Result<Population, TrialError> {
+        if self.run.result().is_some() {
+            self.cfg.trial = self.cfg.trial.wrapping_add(self.stride);
+            self.run = TrialRun::new(&self.cfg)?;
+        }
+        let batch = self.run.batch();
+        let kept = Population {
+            env: batch.env,
+            key: batch.key,
+            genomes: batch.genomes.to_vec(),
+        };
+        let (env, pass, guide, key) = (batch.env, batch.method, batch.guide, batch.key);
+        let evaluations: Vec<_> = batch
+            .genomes
+            .par_iter_mut()
+            .enumerate()
+            .map(|(i, g)| evaluate(&env, pass, &guide, key, i as u64, g))
+            .collect();
+        self.run.accept(&evaluations);
+        Ok(kept)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ga::random_population;
+    use lander_model::stream::streams;
+
+    fn small() -> RunConfig {
+        let mut cfg = RunConfig::default();
+        cfg.ga.population = 6;
+        cfg.ga.max_generations = 2;
+        cfg.ga.max_restarts = 0;
+        cfg
+    }
+
+    #[test]
+    fn the_steps_are_a_runs_generations_and_a_finished_trial_gives_way() {
+        let cfg = small();
+        let work = Workload::new(&cfg, Pass::Guide, Some(5), 1).unwrap();
+        let keys: Vec<StreamKey> = work.steps.iter().map(|s| s[0].key).collect();
+        // Two generations of trial 1 (no restart), then trial 2's.
+        let key = |trial, generation| StreamKey::new(cfg.seed, trial, 0, generation);
+        assert_eq!(
+            keys,
+            [key(1, 1), key(1, 2), key(2, 1), key(2, 2), key(3, 1)]
+        );
+        // A trial's first generation is its random one; the second is bred
+        // from it, as in a run.
+        let first = random_population(&cfg.ga, &mut key(1, 1).rng(streams::OPERATORS));
+        assert_eq!(work.steps[0][0].genomes, first);
+        let random_second = random_population(&cfg.ga, &mut key(1, 2).rng(streams::OPERATORS));
+        assert_ne!(work.steps[1][0].genomes, random_second);
+        assert_eq!(
+            work.steps[2][0].env,
+            RunConfig {
+                trial: 2,
+                ..cfg.clone()
+            }
+            .env(0)
+        );
+        assert_eq!(work.genomes(), 5 * 6);
+    }
+
+    #[test]
+    fn by_default_the_workload_is_the_first_trial_whole() {
+        let cfg = small();
+        let work = Workload::new(&cfg, Pass::Guide, None, 1).unwrap();
+        // At most 2 generations and no restart: the trial flies 1 or 2.
+        let mut run = TrialRun::new(&RunConfig {
+            method: lander_model::Method::Guided,
+            ..cfg
+        })
+        .unwrap();
+        let mut flown = 0;
+        while run.result().is_none() {
+            let b = run.batch();
+            let (env, pass, guide, key) = (b.env, b.method, b.guide, b.key);
+            let ev: Vec<_> = b
+                .genomes
+                .iter_mut()
+                .enumerate()
+                .map(|(i, g)| evaluate(&env, pass, &guide, key, i as u64, g))
+                .collect();
+            run.accept(&ev);
+            flown += 1;
+        }
+        assert_eq!(work.steps.len(), flown);
+        assert!(work.steps.iter().all(|s| s[0].key.trial == 1));
+    }
+
+    #[test]
+    fn trials_in_flight_take_every_other_trial_number() {
+        let work = Workload::new(&small(), Pass::Fly, Some(3), 2).unwrap();
+        let trials: Vec<Vec<u64>> = work
+            .steps
+            .iter()
+            .map(|s| s.iter().map(|p| p.key.trial).collect())
+            .collect();
+        assert_eq!(trials, [[1, 2], [1, 2], [3, 4]]);
+    }
+
+    #[test]
+    fn the_configuration_flies_the_pass_it_is_given() {
+        let cfg = RunConfig {
+            method: lander_model::Method::Qlearning,
+            ..small()
+        };
+        // The pass decides: the configuration's method is the pass's.
+        let work = Workload::new(&cfg, Pass::Fly, Some(1), 1).unwrap();
+        assert_eq!(work.cfg.method, lander_model::Method::Ga);
     }
 }

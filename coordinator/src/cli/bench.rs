@@ -30,7 +30,9 @@ pub struct BenchArgs {
     /// Workers (and threads) for the parallel modes.
     #[arg(long, default_value_t = 2)]
     workers: usize,
-    /// Generations in the workload [default: 30, or 60 with --stress].
+    /// Generations in the workload [default: as many as the first trial
+    /// flies, so that the workload is `lander run --seed S --trial T`'s; 60
+    /// with --stress].
     #[arg(long)]
     generations: Option<u64>,
     /// Genomes per generation [default: 100, or 10000 with --stress].
@@ -54,6 +56,11 @@ pub struct BenchArgs {
     rounds: usize,
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// The first trial flown for the workload: with the same seed, trial
+    /// and generations, the bench evaluates exactly the generations that
+    /// `lander run --seed S --trial T` evaluates.
+    #[arg(long, default_value_t = 1)]
+    trial: u64,
     /// Transports to compare, comma-separated: inproc, iceoryx2, zenoh.
     #[arg(long, value_delimiter = ',', default_value = "inproc,iceoryx2")]
     transports: Vec<String>,
@@ -162,11 +169,16 @@ pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
         anyhow::bail!("--method must be ga or guided");
     };
     cfg.seed = args.seed;
-    let (population, generations) = if args.stress { (10_000, 60) } else { (100, 30) };
+    cfg.trial = args.trial;
+    let (population, generations) = if args.stress {
+        (10_000, Some(60))
+    } else {
+        (100, None)
+    };
     cfg.ga.population = args.population.unwrap_or(population);
     cfg.validate()?;
-    let generations = args.generations.unwrap_or(generations);
-    anyhow::ensure!(generations >= 1, "--generations must be at least 1");
+    let generations = args.generations.or(generations);
+    anyhow::ensure!(generations != Some(0), "--generations must be at least 1");
     if args.stress {
         anyhow::ensure!(
             args.chunks_per_worker.is_none(),
@@ -183,7 +195,7 @@ pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
         args.in_flight,
         cfg.trial
     );
-    let work = Workload::new(&cfg, pass, generations, usize::from(args.in_flight));
+    let work = Workload::new(&cfg, pass, generations, usize::from(args.in_flight))?;
     if args.stress {
         return super::stress::stress(&args_for_stress(&args), &work, stop);
     }
