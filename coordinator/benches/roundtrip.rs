@@ -60,7 +60,7 @@ fn roundtrip(c: &mut Criterion) {
                         evaluator
                             .evaluate(Batch {
                                 env: cfg.env(0),
-                                method: Pass::Fly,
+                                pass: Pass::Fly,
                                 guide: cfg.guided,
                                 key,
                                 max_duration: cfg.ga.max_duration,

@@ -15,7 +15,7 @@ use rayon::prelude::*;
 /// `(key, i)`, so the results do not depend on who flies which genome.
 pub struct Batch<'a> {
     pub env: Env,
-    pub method: Pass,
+    pub pass: Pass,
     pub guide: GuideParams,
     pub key: StreamKey,
     /// The largest duration a gene may have.
@@ -152,11 +152,11 @@ impl Evaluator for InProcess {
             batches
                 .into_par_iter()
                 .map(|b| {
-                    let (env, method, guide, key) = (b.env, b.method, b.guide, b.key);
+                    let (env, pass, guide, key) = (b.env, b.pass, b.guide, b.key);
                     b.genomes
                         .par_iter_mut()
                         .enumerate()
-                        .map(|(i, g)| evaluate(&env, method, &guide, key, i as u64, g))
+                        .map(|(i, g)| evaluate(&env, pass, &guide, key, i as u64, g))
                         .collect()
                 })
                 .collect()

@@ -85,7 +85,7 @@ pub fn run_trial(
 /// [`accept`]: TrialRun::accept
 pub struct TrialRun {
     cfg: RunConfig,
-    method: Pass,
+    pass: Pass,
     env: Env,
     restart: u64,
     /// The generation being flown, within its restart, from 1.
@@ -100,13 +100,13 @@ pub struct TrialRun {
 
 impl TrialRun {
     pub fn new(cfg: &RunConfig) -> Result<TrialRun, TrialError> {
-        let method = cfg
+        let pass = cfg
             .method
             .pass()
             .ok_or(TrialError::NotEvolution(cfg.method.name()))?;
         let mut run = TrialRun {
             cfg: cfg.clone(),
-            method,
+            pass,
             env: cfg.env(0),
             restart: 0,
             generation: 1,
@@ -136,7 +136,7 @@ impl TrialRun {
     pub fn batch(&mut self) -> Batch<'_> {
         Batch {
             env: self.env,
-            method: self.method,
+            pass: self.pass,
             guide: self.cfg.guided,
             key: self.key(self.generation),
             max_duration: self.cfg.ga.max_duration,

@@ -73,13 +73,13 @@ fn guided_generation(c: &mut Criterion) {
     let key = StreamKey::new(1, 1, 0, 1);
     let mut group = c.benchmark_group("generation");
     group.throughput(Throughput::Elements(work.len() as u64));
-    for method in [Pass::Guide, Pass::Fly] {
-        group.bench_function(method.method().name(), |b| {
+    for pass in [Pass::Guide, Pass::Fly] {
+        group.bench_function(pass.method().name(), |b| {
             b.iter_batched_ref(
                 || work.clone(),
                 |batch| {
                     for (i, (e, g)) in batch.iter_mut().enumerate() {
-                        black_box(evaluate(e, method, &params, key, i as u64, g));
+                        black_box(evaluate(e, pass, &params, key, i as u64, g));
                     }
                 },
                 BatchSize::SmallInput,

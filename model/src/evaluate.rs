@@ -11,13 +11,13 @@ use rand_chacha::ChaCha8Rng;
 /// `(key, index)`; the flight then continues from where the pass left it.
 pub fn evaluate(
     env: &Env,
-    method: Pass,
+    pass: Pass,
     guide: &GuideParams,
     key: StreamKey,
     index: u64,
     genes: &mut [Gene],
 ) -> Evaluation {
-    match method {
+    match pass {
         Pass::Fly => {
             let outcome = fly(env, genes);
             Evaluation {

@@ -51,7 +51,8 @@ impl From<Gene> for WireGene {
 pub struct JobHeader {
     pub version: u32,
     pub kind: u32,
-    pub method: u32,
+    /// The [`Pass`]'s code.
+    pub pass: u32,
     pub job_id: u64,
     pub key: StreamKey,
     pub first_index: u64,
@@ -125,7 +126,7 @@ pub enum WireError {
     NotFinite(&'static str),
     #[error("protocol version {got}, but this side speaks version {PROTOCOL_VERSION}")]
     Version { got: u32 },
-    #[error("unknown method code {0}")]
+    #[error("unknown pass code {0}")]
     Pass(u32),
     #[error("{genomes} genomes of {length} genes need {expected} genes, but {got} arrived")]
     Length {
@@ -210,7 +211,7 @@ fn train_from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<TrainJob, WireEr
 
 impl EvalJob {
     fn from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<EvalJob, WireError> {
-        let pass = Pass::from_code(h.method).ok_or(WireError::Pass(h.method))?;
+        let pass = Pass::from_code(h.pass).ok_or(WireError::Pass(h.pass))?;
         let expected = h.genomes as usize * h.genome_length as usize;
         if genes.len() != expected || h.genome_length == 0 {
             return Err(WireError::Length {
@@ -299,7 +300,7 @@ impl ChunkResult {
     /// Decodes and checks a result for `genomes` genomes of `length` genes.
     pub fn decode(
         bytes: &[u8],
-        method: Pass,
+        pass: Pass,
         genomes: usize,
         length: usize,
     ) -> Result<ChunkResult, WireError> {
@@ -314,7 +315,7 @@ impl ChunkResult {
         if let Some(i) = r.evaluations.iter().position(|e| !e.is_plausible()) {
             return Err(WireError::Implausible(i));
         }
-        let expected = if method == Pass::Guide {
+        let expected = if pass == Pass::Guide {
             genomes * length
         } else {
             0

@@ -30,7 +30,7 @@ fn agree(pool: &mut IpcPool, cfg: &RunConfig, generation: u64) {
         let evaluations = evaluator
             .evaluate(Batch {
                 env: cfg.env(0),
-                method: Pass::Guide,
+                pass: Pass::Guide,
                 guide: cfg.guided,
                 key,
                 max_duration: cfg.ga.max_duration,

@@ -172,7 +172,7 @@ impl Mode {
             .zip(&mut genomes)
             .map(|(p, genomes)| Batch {
                 env: p.env,
-                method: work.method,
+                pass: work.pass,
                 guide: work.cfg.guided,
                 key: p.key,
                 max_duration: work.cfg.ga.max_duration,

@@ -59,7 +59,7 @@ impl StressReport {
     ) -> StressReport {
         let r = churned.report();
         StressReport {
-            method: work.method.method().name(),
+            method: work.pass.method().name(),
             population: work.cfg.ga.population,
             generations: work.steps.len(),
             workers: churned.kind.workers(),

@@ -18,7 +18,7 @@ use rayon::prelude::*;
 /// flight.
 pub struct Workload {
     pub cfg: RunConfig,
-    pub method: Pass,
+    pub pass: Pass,
     pub in_flight: usize,
     /// Per step, one population per trial in flight.
     pub steps: Vec<Vec<Population>>,
@@ -38,12 +38,12 @@ impl Workload {
     /// workload is exactly `lander run`'s.
     pub fn new(
         cfg: &RunConfig,
-        method: Pass,
+        pass: Pass,
         generations: Option<u64>,
         in_flight: usize,
     ) -> Result<Workload, TrialError> {
         let cfg = RunConfig {
-            method: method.method(),
+            method: pass.method(),
             ..cfg.clone()
         };
         let mut flights = (0..in_flight as u64)
@@ -67,7 +67,7 @@ impl Workload {
         }
         Ok(Workload {
             cfg,
-            method,
+            pass,
             in_flight,
             steps,
         })
@@ -118,7 +118,7 @@ impl Flown {
             key: batch.key,
             genomes: batch.genomes.to_vec(),
         };
-        let (env, pass, guide, key) = (batch.env, batch.method, batch.guide, batch.key);
+        let (env, pass, guide, key) = (batch.env, batch.pass, batch.guide, batch.key);
         let evaluations: Vec<_> = batch
             .genomes
             .par_iter_mut()
@@ -185,7 +185,7 @@ mod tests {
         let mut flown = 0;
         while run.result().is_none() {
             let b = run.batch();
-            let (env, pass, guide, key) = (b.env, b.method, b.guide, b.key);
+            let (env, pass, guide, key) = (b.env, b.pass, b.guide, b.key);
             let ev: Vec<_> = b
                 .genomes
                 .iter_mut()

@@ -63,7 +63,7 @@ impl<T: Transport> Evaluator for Pool<T> {
             }
             for range in chunk_ranges(batch.genomes.len(), per_batch, workers) {
                 chunks.push(chunk_of(batch, range.clone(), length));
-                spans.push((b, range, length, batch.method));
+                spans.push((b, range, length, batch.pass));
             }
         }
         // The guided actions go back into the genomes as each answer
@@ -72,8 +72,8 @@ impl<T: Transport> Evaluator for Pool<T> {
         let results = self.run_chunks(
             &chunks,
             |i, body| {
-                let (_, range, length, method) = &spans[i];
-                ChunkResult::decode(body, *method, range.len(), *length).map_err(|e| e.to_string())
+                let (_, range, length, pass) = &spans[i];
+                ChunkResult::decode(body, *pass, range.len(), *length).map_err(|e| e.to_string())
             },
             |i, result| {
                 let (b, range, _, _) = &spans[i];
@@ -98,7 +98,7 @@ fn chunk_of(batch: &Batch<'_>, range: Range<usize>, length: usize) -> Chunk {
         header: JobHeader {
             version: PROTOCOL_VERSION,
             kind: KIND_EVALUATE,
-            method: batch.method.code(),
+            pass: batch.pass.code(),
             key: batch.key,
             first_index: range.start as u64,
             genomes: genomes.len() as u32,

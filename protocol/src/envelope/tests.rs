@@ -7,7 +7,7 @@ fn job() -> (JobHeader, Vec<WireGene>) {
     let header = JobHeader {
         version: PROTOCOL_VERSION,
         kind: KIND_EVALUATE,
-        method: Pass::Guide.code(),
+        pass: Pass::Guide.code(),
         job_id: 7,
         key: StreamKey::new(1, 2, 0, 3),
         first_index: 10,

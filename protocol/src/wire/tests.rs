@@ -6,7 +6,7 @@ use lander_model::{Outcome, State};
 fn header(genomes: u32, length: u32) -> JobHeader {
     JobHeader {
         version: PROTOCOL_VERSION,
-        method: Pass::Guide.code(),
+        pass: Pass::Guide.code(),
         genomes,
         genome_length: length,
         max_duration: 30,
@@ -44,7 +44,7 @@ fn bad_jobs_are_refused() {
         })
     );
     let mut h = header(1, 2);
-    h.method = 9;
+    h.pass = 9;
     assert_eq!(Job::from_wire(&h, &genes), Err(WireError::Pass(9)));
     assert!(matches!(
         Job::from_wire(&header(2, 2), &genes),
