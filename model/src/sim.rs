@@ -222,16 +222,7 @@ impl Flight {
     /// Gravity, move, wrap and the impact test. Returns true at touchdown.
     #[inline(always)]
     fn finish_tick(&mut self, p: &Physics) -> bool {
-        let s = &mut self.state;
-        s.vy += -p.gravity;
-        s.x += s.vx;
-        s.y += s.vy;
-        if s.x > p.width {
-            s.x = 0.0;
-        }
-        if s.x < 0.0 {
-            s.x = p.width;
-        }
+        motion(p, &mut self.state);
         self.ticks += 1;
         if self.state.y < p.clear_y {
             self.touched_down = self.hull_below_ground(p);
@@ -263,6 +254,21 @@ impl Flight {
             (self.sin, self.cos) = self.state.rot.sin_cos();
             self.trig_rot = self.state.rot;
         }
+    }
+}
+
+/// A tick's motion after any rotation or thrust: gravity, move, and the
+/// wrap at both edges.
+#[inline(always)]
+fn motion(p: &Physics, s: &mut State) {
+    s.vy += -p.gravity;
+    s.x += s.vx;
+    s.y += s.vy;
+    if s.x > p.width {
+        s.x = 0.0;
+    }
+    if s.x < 0.0 {
+        s.x = p.width;
     }
 }
 

@@ -2,9 +2,10 @@
 //! same for every mode and every round.
 
 use crate::config::RunConfig;
+use crate::evaluator::Batch;
 use crate::ga::Genome;
 use crate::trial::{TrialError, TrialRun};
-use lander_model::{evaluate, Env, Pass, StreamKey};
+use lander_model::{evaluate, Env, Evaluation, Pass, StreamKey};
 use rayon::prelude::*;
 
 /// The generations every mode evaluates: those a real run evaluates, so
@@ -118,16 +119,21 @@ impl Flown {
             key: batch.key,
             genomes: batch.genomes.to_vec(),
         };
-        let (env, pass, guide, key) = (batch.env, batch.pass, batch.guide, batch.key);
-        let evaluations: Vec<_> = batch
-            .genomes
-            .par_iter_mut()
-            .enumerate()
-            .map(|(i, g)| evaluate(&env, pass, &guide, key, i as u64, g))
-            .collect();
+        let evaluations = evaluate_batch(batch);
         self.run.accept(&evaluations);
         Ok(kept)
     }
+}
+
+/// Evaluates a batch in place, as the in-process evaluator does.
+fn evaluate_batch(batch: Batch<'_>) -> Vec<Evaluation> {
+    let (env, pass, guide, key) = (batch.env, batch.pass, batch.guide, batch.key);
+    batch
+        .genomes
+        .par_iter_mut()
+        .enumerate()
+        .map(|(i, g)| evaluate(&env, pass, &guide, key, i as u64, g))
+        .collect()
 }
 
 #[cfg(test)]
@@ -184,15 +190,8 @@ mod tests {
         .unwrap();
         let mut flown = 0;
         while run.result().is_none() {
-            let b = run.batch();
-            let (env, pass, guide, key) = (b.env, b.pass, b.guide, b.key);
-            let ev: Vec<_> = b
-                .genomes
-                .iter_mut()
-                .enumerate()
-                .map(|(i, g)| evaluate(&env, pass, &guide, key, i as u64, g))
-                .collect();
-            run.accept(&ev);
+            let evaluations = evaluate_batch(run.batch());
+            run.accept(&evaluations);
             flown += 1;
         }
         assert_eq!(work.steps.len(), flown);

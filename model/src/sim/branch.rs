@@ -10,7 +10,7 @@
 //! in one loop so that the two dependency chains overlap. Each branch stops
 //! at its own touchdown, exactly where flying it alone stops.
 
-use super::{Flight, Physics};
+use super::{motion, Flight, Physics};
 use crate::{Action, State};
 use std::f64::consts::{PI, TAU};
 
@@ -24,20 +24,6 @@ const SHARED: [usize; 3] = [
 const LEFT: usize = Action::RotateLeft as usize;
 const RIGHT: usize = Action::RotateRight as usize;
 const THRUST: usize = Action::Thrust as usize;
-
-/// [`Flight::finish_tick`]'s motion: gravity, move, wrap.
-#[inline(always)]
-fn step(p: &Physics, s: &mut State) {
-    s.vy += -p.gravity;
-    s.x += s.vx;
-    s.y += s.vy;
-    if s.x > p.width {
-        s.x = 0.0;
-    }
-    if s.x < 0.0 {
-        s.x = p.width;
-    }
-}
 
 /// Tests the hulls of the branches on the shared path, `k` ticks into the
 /// branch from `start` ticks; a branch down there stops.
@@ -86,7 +72,7 @@ impl Flight {
                 // Flight::thrust, then Flight::finish_tick's motion.
                 pushed.vx += push_x;
                 pushed.vy += push_y;
-                step(p, &mut pushed);
+                motion(p, &mut pushed);
                 if pushed.y < p.clear_y && lanes[THRUST].lands_at(p, pushed, self.ticks + k) {
                     alive[THRUST] = false;
                     flown[THRUST] = k;
@@ -104,7 +90,7 @@ impl Flight {
                     rot_right -= TAU;
                 }
             }
-            step(p, &mut path);
+            motion(p, &mut path);
             if path.y < p.clear_y {
                 lanes[LEFT].state.rot = rot_left;
                 lanes[RIGHT].state.rot = rot_right;
