@@ -58,6 +58,8 @@ pub enum TrialError {
     Eval(#[from] EvalError),
     #[error(transparent)]
     Observer(ObserveError),
+    #[error("no trial is numbered past {0}")]
+    TrialNumber(u64),
 }
 
 /// Runs one trial.

@@ -6,6 +6,7 @@ use super::{Measured, Workload};
 use crate::config::RunConfig;
 use crate::evaluator::{Batch, EvalError, Evaluator};
 use crate::pool::ChunkTiming;
+use crate::stop::Stop;
 use lander_model::{Evaluation, Outcome, Pass, State};
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -18,7 +19,14 @@ pub fn workload(generations: u64, population: usize, in_flight: usize) -> Worklo
     let mut cfg = RunConfig::default();
     cfg.ga.population = population;
     cfg.ga.elites = cfg.ga.elites.min(population);
-    Workload::new(&cfg, Pass::Guide, Some(generations), in_flight).expect("a GA workload")
+    Workload::new(
+        &cfg,
+        Pass::Guide,
+        Some(generations),
+        in_flight,
+        &Stop::new(),
+    )
+    .expect("a GA workload")
 }
 
 pub struct Fake {

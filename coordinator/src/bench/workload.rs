@@ -2,8 +2,9 @@
 //! same for every mode and every round.
 
 use crate::config::RunConfig;
-use crate::evaluator::Batch;
+use crate::evaluator::{Batch, EvalError};
 use crate::ga::Genome;
+use crate::stop::Stop;
 use crate::trial::{TrialError, TrialRun};
 use lander_model::{evaluate, Env, Evaluation, Pass, StreamKey};
 use rayon::prelude::*;
@@ -37,11 +38,13 @@ impl Workload {
     /// configuration's trial on; `None` takes as many steps as the first
     /// trial flies generations, so that with one trial in flight the
     /// workload is exactly `lander run`'s.
+    /// Stops, interrupted, once `stop` is asked.
     pub fn new(
         cfg: &RunConfig,
         pass: Pass,
         generations: Option<u64>,
         in_flight: usize,
+        stop: &Stop,
     ) -> Result<Workload, TrialError> {
         let cfg = RunConfig {
             method: pass.method(),
@@ -59,6 +62,9 @@ impl Workload {
             };
             if done {
                 break;
+            }
+            if stop.asked() {
+                return Err(TrialError::Eval(EvalError::Interrupted));
             }
             let step = flights
                 .iter_mut()
@@ -91,7 +97,7 @@ struct Flown {
 impl Flown {
     fn new(cfg: &RunConfig, slot: u64, stride: u64) -> Result<Flown, TrialError> {
         let cfg = RunConfig {
-            trial: cfg.trial.wrapping_add(slot),
+            trial: (cfg.trial.checked_add(slot)).ok_or(TrialError::TrialNumber(cfg.trial))?,
             ..cfg.clone()
         };
         Ok(Flown {
@@ -110,7 +116,8 @@ impl Flown {
     /// then evaluates it as a run would, and moves on.
     fn next(&mut self) -> Result<Population, TrialError> {
         if self.run.result().is_some() {
-            self.cfg.trial = self.cfg.trial.wrapping_add(self.stride);
+            self.cfg.trial = (self.cfg.trial.checked_add(self.stride))
+                .ok_or(TrialError::TrialNumber(self.cfg.trial))?;
             self.run = TrialRun::new(&self.cfg)?;
         }
         let batch = self.run.batch();
@@ -153,7 +160,7 @@ mod tests {
     #[test]
     fn the_steps_are_a_runs_generations_and_a_finished_trial_gives_way() {
         let cfg = small();
-        let work = Workload::new(&cfg, Pass::Guide, Some(5), 1).unwrap();
+        let work = Workload::new(&cfg, Pass::Guide, Some(5), 1, &Stop::new()).unwrap();
         let keys: Vec<StreamKey> = work.steps.iter().map(|s| s[0].key).collect();
         // Two generations of trial 1 (no restart), then trial 2's.
         let key = |trial, generation| StreamKey::new(cfg.seed, trial, 0, generation);
@@ -181,7 +188,7 @@ mod tests {
     #[test]
     fn by_default_the_workload_is_the_first_trial_whole() {
         let cfg = small();
-        let work = Workload::new(&cfg, Pass::Guide, None, 1).unwrap();
+        let work = Workload::new(&cfg, Pass::Guide, None, 1, &Stop::new()).unwrap();
         // At most 2 generations and no restart: the trial flies 1 or 2.
         let mut run = TrialRun::new(&RunConfig {
             method: lander_model::Method::Guided,
@@ -199,8 +206,26 @@ mod tests {
     }
 
     #[test]
+    fn a_stop_ends_the_building_and_the_last_trial_number_is_refused() {
+        let stop = Stop::new();
+        stop.ask();
+        assert!(matches!(
+            Workload::new(&small(), Pass::Fly, Some(3), 1, &stop),
+            Err(TrialError::Eval(EvalError::Interrupted))
+        ));
+        let last = RunConfig {
+            trial: u64::MAX,
+            ..small()
+        };
+        assert!(matches!(
+            Workload::new(&last, Pass::Fly, Some(1), 2, &Stop::new()),
+            Err(TrialError::TrialNumber(u64::MAX))
+        ));
+    }
+
+    #[test]
     fn trials_in_flight_take_every_other_trial_number() {
-        let work = Workload::new(&small(), Pass::Fly, Some(3), 2).unwrap();
+        let work = Workload::new(&small(), Pass::Fly, Some(3), 2, &Stop::new()).unwrap();
         let trials: Vec<Vec<u64>> = work
             .steps
             .iter()
@@ -216,7 +241,7 @@ mod tests {
             ..small()
         };
         // The pass decides: the configuration's method is the pass's.
-        let work = Workload::new(&cfg, Pass::Fly, Some(1), 1).unwrap();
+        let work = Workload::new(&cfg, Pass::Fly, Some(1), 1, &Stop::new()).unwrap();
         assert_eq!(work.cfg.method, lander_model::Method::Ga);
     }
 }

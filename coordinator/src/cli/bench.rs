@@ -127,7 +127,9 @@ fn kinds(args: &BenchArgs) -> anyhow::Result<Vec<ModeKind>> {
 /// Starts the evaluator of a mode of `kind`, its workers announced.
 fn evaluator(args: &BenchArgs, kind: ModeKind, stop: &Stop) -> anyhow::Result<Box<dyn Measured>> {
     Ok(match kind {
-        ModeKind::InProcess { threads } => Box::new(InProcess::new(threads)?),
+        ModeKind::InProcess { threads } => {
+            Box::new(InProcess::new(threads)?.stopping_on(stop.clone()))
+        }
         ModeKind::Iceoryx2 { workers } => {
             let id = format!("bench{:08x}", rand::random::<u32>());
             let opts = pool_options_for(args, id, workers, stop)?;
@@ -195,7 +197,7 @@ pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
         args.in_flight,
         cfg.trial
     );
-    let work = Workload::new(&cfg, pass, generations, usize::from(args.in_flight))?;
+    let work = Workload::new(&cfg, pass, generations, usize::from(args.in_flight), stop)?;
     if args.stress {
         return super::stress::stress(&args_for_stress(&args), &work, stop);
     }

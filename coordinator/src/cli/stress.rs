@@ -30,7 +30,7 @@ pub fn stress(args: &StressArgs, work: &Workload, stop: &Stop) -> anyhow::Result
         args.kill_rate
     );
     // One thread per core: the reference need only be right.
-    let inproc = InProcess::new(0)?;
+    let inproc = InProcess::new(0)?.stopping_on(stop.clone());
     let threads = inproc.thread_count();
     let mut reference = Mode::new(ModeKind::InProcess { threads }, Box::new(inproc));
     let mut opts = pool_options(

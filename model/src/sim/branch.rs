@@ -210,6 +210,30 @@ mod tests {
         }
     }
 
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+
+        /// From a lane an earlier branch left, its caches warm, as the
+        /// guided pass branches gene after gene.
+        #[test]
+        fn branching_again_from_a_branch_equals_flying_alone(
+            x in 0.0f64..400.0, y in 52.0f64..120.0,
+            vx in -0.5f64..0.5, vy in -1.0f64..0.5, rot in -PI..TAU,
+            first in 1u32..=20, lane in 0usize..4, then in 1u32..=20,
+        ) {
+            let e = test_env(200.0, 100.0);
+            let p = Physics::new(&e);
+            let (lanes, _) = Flight::at(State { x, y, vx, vy, rot }, 0).branch(&p, first);
+            let from = lanes[lane];
+            let (fast, flown) = from.branch(&p, then);
+            let (slow, flown_alone) = from.branch_one_by_one(&p, then);
+            for (f, s) in fast.iter().zip(&slow) {
+                prop_assert_eq!((f.state, f.ticks, f.touched_down()), (s.state, s.ticks, s.touched_down()));
+            }
+            prop_assert_eq!(flown, flown_alone);
+        }
+    }
+
     #[test]
     fn a_flight_that_touched_down_branches_nowhere() {
         let e = test_env(200.0, 100.0);
