@@ -11,6 +11,7 @@ use crate::sim::{Flight, Physics};
 use crate::stream::streams;
 use crate::tiles::TileCoder;
 use crate::{Env, EpisodeRecord, GuideParams, LearnParams, StreamKey, TrainResult, Training};
+use std::ops::ControlFlow;
 
 pub struct LanderTask {
     env: Env,
@@ -94,6 +95,27 @@ pub fn train(
     key: StreamKey,
     observe: &mut dyn FnMut(&EpisodeRecord),
 ) -> Training {
+    let go_on = &mut |e: &EpisodeRecord| {
+        observe(e);
+        ControlFlow::Continue(())
+    };
+    // Never broken off, so there is always a result.
+    train_until(env, guide, learn, key, go_on).unwrap_or(Training {
+        episodes: 0,
+        first_safe: None,
+        landing_rate_last_100: 0.0,
+    })
+}
+
+/// [`train`], where `observe` may break off after any episode: then there
+/// is no result, and the episodes it saw are all there is.
+pub fn train_until(
+    env: &Env,
+    guide: &GuideParams,
+    learn: &LearnParams,
+    key: StreamKey,
+    observe: &mut dyn FnMut(&EpisodeRecord) -> ControlFlow<()>,
+) -> Option<Training> {
     let mut task = LanderTask::new(env, guide, learn);
     let params = QParams {
         alpha: learn.step_size / f64::from(learn.tilings),
@@ -115,7 +137,7 @@ pub fn train(
             recent.pop_front();
         }
         recent.push_back(task.landed);
-        observe(&EpisodeRecord {
+        let seen = observe(&EpisodeRecord {
             episode,
             reward: stats.reward,
             ticks: task.flight.ticks,
@@ -123,13 +145,16 @@ pub fn train(
             safe: task.landed,
             epsilon: learn.epsilon,
         });
+        if seen.is_break() {
+            return None;
+        }
     }
     let landed = recent.iter().filter(|&&l| l).count();
-    Training {
+    Some(Training {
         episodes: learn.episodes,
         first_safe,
         landing_rate_last_100: landed as f64 / recent.len().max(1) as f64,
-    }
+    })
 }
 
 /// A whole Q(λ) trial: everything [`run_training`] needs, so that any
@@ -177,6 +202,45 @@ mod tests {
                 assert_eq!(last.0, task.r() - before - 100.0);
             }
         }
+    }
+
+    #[test]
+    fn training_broken_off_has_no_result_and_saw_each_episode_once() {
+        let env = test_env(150.0, 200.0);
+        let learn = LearnParams {
+            episodes: 30,
+            ..LearnParams::default()
+        };
+        let mut seen = Vec::new();
+        let t = train_until(
+            &env,
+            &GuideParams::default(),
+            &learn,
+            StreamKey::new(1, 1, 0, 0),
+            &mut |e| {
+                seen.push(e.clone());
+                if e.episode == 7 {
+                    ControlFlow::Break(())
+                } else {
+                    ControlFlow::Continue(())
+                }
+            },
+        );
+        assert_eq!(t, None);
+        assert_eq!(
+            seen.iter().map(|e| e.episode).collect::<Vec<_>>(),
+            (1..=7).collect::<Vec<_>>()
+        );
+        // The episodes it did fly are those of the whole trial.
+        let mut whole = Vec::new();
+        train(
+            &env,
+            &GuideParams::default(),
+            &learn,
+            StreamKey::new(1, 1, 0, 0),
+            &mut |e| whole.push(e.clone()),
+        );
+        assert_eq!(&whole[..7], &seen[..]);
     }
 
     #[test]

@@ -384,3 +384,38 @@ fn a_run_replaces_an_earlier_runs_outputs_and_leaves_an_experiment_alone() {
     refused_in(experiment.path(), "experiment.json");
     assert!(!experiment.path().join("generations.jsonl").exists());
 }
+
+#[test]
+fn ctrl_c_stops_an_in_process_q_learning_run_with_its_episodes_kept() {
+    use lander_tests::{binary, lines_in, signal, wait_until};
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    let child = Command::new(binary("lander"))
+        .args(["run", "--method", "qlearning", "--episodes", "10000000"])
+        .args(["--out", dir.path().to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let log = dir.path().join("episodes.jsonl");
+    assert!(
+        wait_until(60, || lines_in(&log) > 0),
+        "no episode was written"
+    );
+    signal(child.id(), "INT");
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("stopped by SIGINT"),
+        "{}",
+        stderr(&out)
+    );
+    // Every episode flown is kept, whole and in order; there is no summary.
+    let episodes: Vec<u64> = json_lines(&log)
+        .iter()
+        .map(|e| e["episode"].as_u64().unwrap())
+        .collect();
+    assert!(episodes.len() < 10_000_000);
+    assert_eq!(episodes, (1..=episodes.len() as u64).collect::<Vec<_>>());
+    assert!(!dir.path().join("summary.json").exists());
+}

@@ -5,15 +5,17 @@
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use lander_coordinator::config::RunConfig;
-use lander_coordinator::evaluator::Backend;
+use lander_coordinator::evaluator::{Backend, EvalError};
 use lander_coordinator::run_files::write_json;
-use lander_model::learn::train;
+use lander_coordinator::stop::Stop;
+use lander_model::learn::train_until;
 use lander_model::EpisodeRecord;
 use lander_model::StreamKey;
 use lander_model::TrainJob;
 use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};
+use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
 
@@ -38,6 +40,7 @@ pub fn learn(
     out: &Path,
     json: bool,
     pool: Option<Box<dyn Backend>>,
+    stop: &Stop,
 ) -> anyhow::Result<()> {
     let env = cfg.env(0);
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
@@ -68,7 +71,20 @@ pub fn learn(
         }
     };
     let training = match pool {
-        None => train(&env, &cfg.guided, &cfg.qlearning, key, &mut record),
+        None => {
+            // In-process, the trial looks at `stop` after every episode, as
+            // a pool does between its sleeps.
+            let mut until_stopped = |e: &EpisodeRecord| {
+                record(e);
+                if stop.asked() {
+                    ControlFlow::Break(())
+                } else {
+                    ControlFlow::Continue(())
+                }
+            };
+            train_until(&env, &cfg.guided, &cfg.qlearning, key, &mut until_stopped)
+                .ok_or(EvalError::Interrupted)?
+        }
         Some(mut pool) => {
             let job = TrainJob {
                 env,

@@ -88,7 +88,7 @@ pub fn run(args: RunArgs, stop: &Stop) -> anyhow::Result<()> {
     if cfg.method == Method::Qlearning {
         let pool = args.transport.pool(&ProgressBar::hidden(), stop)?;
         prepare(&out)?;
-        return super::learning::learn(&cfg, &out, args.json, pool);
+        return super::learning::learn(&cfg, &out, args.json, pool, stop);
     }
     let bar = progress_bar(cfg.ga.max_generations);
     let mut evaluator = args.transport.evaluator(cfg.threads, &bar, stop)?;
