@@ -24,6 +24,19 @@ pub struct Batch<'a> {
     pub genomes: &'a mut [Genome],
 }
 
+impl Batch<'_> {
+    /// Evaluates every genome here, on the current rayon pool, rewriting
+    /// the genomes as the guided pass leaves them.
+    pub fn evaluate_here(self) -> Vec<Evaluation> {
+        let (env, pass, guide, key) = (self.env, self.pass, self.guide, self.key);
+        self.genomes
+            .par_iter_mut()
+            .enumerate()
+            .map(|(i, g)| evaluate(&env, pass, &guide, key, i as u64, g))
+            .collect()
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum EvalError {
     #[error("cannot start {threads} evaluation threads: {reason}")]
@@ -148,19 +161,9 @@ impl Evaluator for InProcess {
         if self.stop.asked() {
             return Err(EvalError::Interrupted);
         }
-        Ok(self.pool.install(|| {
-            batches
-                .into_par_iter()
-                .map(|b| {
-                    let (env, pass, guide, key) = (b.env, b.pass, b.guide, b.key);
-                    b.genomes
-                        .par_iter_mut()
-                        .enumerate()
-                        .map(|(i, g)| evaluate(&env, pass, &guide, key, i as u64, g))
-                        .collect()
-                })
-                .collect()
-        }))
+        Ok(self
+            .pool
+            .install(|| batches.into_par_iter().map(Batch::evaluate_here).collect()))
     }
 }
 

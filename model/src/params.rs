@@ -107,9 +107,7 @@ impl World {
         )?;
         Ok(())
     }
-}
 
-impl World {
     /// Velocity change per thrust tick, `a = (350/60)/100` by default.
     pub fn thrust_per_tick(&self) -> f64 {
         (self.thrust / self.ticks_per_second) / self.mass

@@ -198,18 +198,12 @@ impl Flight {
 
     #[inline(always)]
     fn rotate_left(&mut self, p: &Physics) {
-        self.state.rot -= p.rotation_step;
-        if self.state.rot < -PI {
-            self.state.rot += TAU;
-        }
+        self.state.rot = turned_left(p, self.state.rot);
     }
 
     #[inline(always)]
     fn rotate_right(&mut self, p: &Physics) {
-        self.state.rot += p.rotation_step;
-        if self.state.rot > TAU {
-            self.state.rot -= TAU;
-        }
+        self.state.rot = turned_right(p, self.state.rot);
     }
 
     #[inline(always)]
@@ -254,6 +248,29 @@ impl Flight {
             (self.sin, self.cos) = self.state.rot.sin_cos();
             self.trig_rot = self.state.rot;
         }
+    }
+}
+
+/// `rot` after a rotate-left tick, wrapped below −π (SPEC §1's asymmetric
+/// wrap).
+#[inline(always)]
+fn turned_left(p: &Physics, rot: f64) -> f64 {
+    let rot = rot - p.rotation_step;
+    if rot < -PI {
+        rot + TAU
+    } else {
+        rot
+    }
+}
+
+/// `rot` after a rotate-right tick, wrapped only above 2π.
+#[inline(always)]
+fn turned_right(p: &Physics, rot: f64) -> f64 {
+    let rot = rot + p.rotation_step;
+    if rot > TAU {
+        rot - TAU
+    } else {
+        rot
     }
 }
 

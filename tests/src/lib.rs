@@ -197,6 +197,20 @@ pub fn signal(pid: u32, signal: &str) {
     assert!(status.success(), "kill -{signal} {pid} failed");
 }
 
+/// Sends SIGINT to a `lander` under way and waits for it: it must stop as
+/// Ctrl-C stops it, exiting 130 and saying so.
+pub fn interrupt(child: std::process::Child) -> Output {
+    signal(child.id(), "INT");
+    let out = child.wait_with_output().expect("lander is waited for");
+    assert_eq!(out.status.code(), Some(130), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("stopped by SIGINT"),
+        "{}",
+        stderr(&out)
+    );
+    out
+}
+
 /// Lines in a file so far, 0 if it does not exist yet.
 pub fn lines_in(path: &Path) -> usize {
     std::fs::read_to_string(path).map_or(0, |t| t.lines().count())

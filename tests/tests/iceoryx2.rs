@@ -3,8 +3,8 @@
 //! hang, or come and go.
 
 use lander_tests::{
-    json_lines, json_out, lines_in, signal, stderr, wait_until, without_wall_time, worker_children,
-    Iox,
+    interrupt, json_lines, json_out, lines_in, signal, stderr, wait_until, without_wall_time,
+    worker_children, Iox,
 };
 use serde_json::Value;
 use std::fs;
@@ -129,14 +129,7 @@ fn ctrl_c_stops_the_run_cleanly_with_what_it_flew_kept() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = never_lands(dir.path());
     let (child, workers) = under_way(&iox, dir.path(), &["--config", &cfg], 5);
-    signal(child.id(), "INT");
-    let out = child.wait_with_output().unwrap();
-    assert_eq!(out.status.code(), Some(130), "{}", stderr(&out));
-    assert!(
-        stderr(&out).contains("stopped by SIGINT"),
-        "{}",
-        stderr(&out)
-    );
+    interrupt(child);
     for worker in workers {
         assert!(
             !Path::new(&format!("/proc/{worker}")).exists(),

@@ -387,7 +387,7 @@ fn a_run_replaces_an_earlier_runs_outputs_and_leaves_an_experiment_alone() {
 
 #[test]
 fn ctrl_c_stops_an_in_process_q_learning_run_with_its_episodes_kept() {
-    use lander_tests::{binary, lines_in, signal, wait_until};
+    use lander_tests::{binary, interrupt, lines_in, wait_until};
     use std::process::{Command, Stdio};
     let dir = tempfile::tempdir().unwrap();
     let child = Command::new(binary("lander"))
@@ -402,14 +402,7 @@ fn ctrl_c_stops_an_in_process_q_learning_run_with_its_episodes_kept() {
         wait_until(60, || lines_in(&log) > 0),
         "no episode was written"
     );
-    signal(child.id(), "INT");
-    let out = child.wait_with_output().unwrap();
-    assert_eq!(out.status.code(), Some(130), "{}", stderr(&out));
-    assert!(
-        stderr(&out).contains("stopped by SIGINT"),
-        "{}",
-        stderr(&out)
-    );
+    interrupt(child);
     // Every episode flown is kept, whole and in order; there is no summary.
     let episodes: Vec<u64> = json_lines(&log)
         .iter()

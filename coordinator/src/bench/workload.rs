@@ -2,12 +2,11 @@
 //! same for every mode and every round.
 
 use crate::config::RunConfig;
-use crate::evaluator::{Batch, EvalError};
+use crate::evaluator::EvalError;
 use crate::ga::Genome;
 use crate::stop::Stop;
 use crate::trial::{TrialError, TrialRun};
-use lander_model::{evaluate, Env, Evaluation, Pass, StreamKey};
-use rayon::prelude::*;
+use lander_model::{Env, Pass, StreamKey};
 
 /// The generations every mode evaluates: those a real run evaluates, so
 /// that the bench measures what users get. Each trial in flight is flown
@@ -37,8 +36,8 @@ impl Workload {
     /// `generations` steps of `in_flight` trials, numbered from the
     /// configuration's trial on; `None` takes as many steps as the first
     /// trial flies generations, so that with one trial in flight the
-    /// workload is exactly `lander run`'s.
-    /// Stops, interrupted, once `stop` is asked.
+    /// workload is exactly `lander run`'s. Stops, interrupted, once `stop`
+    /// is asked.
     pub fn new(
         cfg: &RunConfig,
         pass: Pass,
@@ -97,7 +96,10 @@ struct Flown {
 impl Flown {
     fn new(cfg: &RunConfig, slot: u64, stride: u64) -> Result<Flown, TrialError> {
         let cfg = RunConfig {
-            trial: (cfg.trial.checked_add(slot)).ok_or(TrialError::TrialNumber(cfg.trial))?,
+            trial: cfg
+                .trial
+                .checked_add(slot)
+                .ok_or(TrialError::TrialNumber(cfg.trial))?,
             ..cfg.clone()
         };
         Ok(Flown {
@@ -116,7 +118,10 @@ impl Flown {
     /// then evaluates it as a run would, and moves on.
     fn next(&mut self) -> Result<Population, TrialError> {
         if self.run.result().is_some() {
-            self.cfg.trial = (self.cfg.trial.checked_add(self.stride))
+            self.cfg.trial = self
+                .cfg
+                .trial
+                .checked_add(self.stride)
                 .ok_or(TrialError::TrialNumber(self.cfg.trial))?;
             self.run = TrialRun::new(&self.cfg)?;
         }
@@ -126,21 +131,10 @@ impl Flown {
             key: batch.key,
             genomes: batch.genomes.to_vec(),
         };
-        let evaluations = evaluate_batch(batch);
+        let evaluations = batch.evaluate_here();
         self.run.accept(&evaluations);
         Ok(kept)
     }
-}
-
-/// Evaluates a batch in place, as the in-process evaluator does.
-fn evaluate_batch(batch: Batch<'_>) -> Vec<Evaluation> {
-    let (env, pass, guide, key) = (batch.env, batch.pass, batch.guide, batch.key);
-    batch
-        .genomes
-        .par_iter_mut()
-        .enumerate()
-        .map(|(i, g)| evaluate(&env, pass, &guide, key, i as u64, g))
-        .collect()
 }
 
 #[cfg(test)]
@@ -197,7 +191,7 @@ mod tests {
         .unwrap();
         let mut flown = 0;
         while run.result().is_none() {
-            let evaluations = evaluate_batch(run.batch());
+            let evaluations = run.batch().evaluate_here();
             run.accept(&evaluations);
             flown += 1;
         }

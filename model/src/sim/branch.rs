@@ -10,9 +10,8 @@
 //! in one loop so that the two dependency chains overlap. Each branch stops
 //! at its own touchdown, exactly where flying it alone stops.
 
-use super::{motion, Flight, Physics};
+use super::{motion, turned_left, turned_right, Flight, Physics};
 use crate::{Action, State};
-use std::f64::consts::{PI, TAU};
 
 /// The branches that share the drifting path, by their index in
 /// [`Action::ALL`].
@@ -34,7 +33,8 @@ fn land_shared(
     alive: &mut [bool; 4],
     flown: &mut [u32; 4],
     path: State,
-    (start, k): (u32, u32),
+    start: u32,
+    k: u32,
 ) {
     for i in SHARED {
         if alive[i] && lanes[i].lands_at(p, path, start + k) {
@@ -79,22 +79,16 @@ impl Flight {
                 }
             }
             if alive[LEFT] {
-                rot_left -= p.rotation_step;
-                if rot_left < -PI {
-                    rot_left += TAU;
-                }
+                rot_left = turned_left(p, rot_left);
             }
             if alive[RIGHT] {
-                rot_right += p.rotation_step;
-                if rot_right > TAU {
-                    rot_right -= TAU;
-                }
+                rot_right = turned_right(p, rot_right);
             }
             motion(p, &mut path);
             if path.y < p.clear_y {
                 lanes[LEFT].state.rot = rot_left;
                 lanes[RIGHT].state.rot = rot_right;
-                land_shared(p, &mut lanes, &mut alive, &mut flown, path, (self.ticks, k));
+                land_shared(p, &mut lanes, &mut alive, &mut flown, path, self.ticks, k);
             }
             if alive == [false; 4] {
                 break;
@@ -154,6 +148,7 @@ mod tests {
     use super::*;
     use crate::test_env;
     use proptest::prelude::*;
+    use std::f64::consts::{PI, TAU};
 
     /// Every lane of `branch` equals the same lane flown alone, in every
     /// bit, and so do the ticks flown.
