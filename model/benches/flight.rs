@@ -13,6 +13,7 @@ use lander_model::{Action, Env, Gene, GuideParams, LearnParams, Pass, Scoring, S
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
+use std::ops::ControlFlow;
 
 /// 100 random genomes of the paper's shape, each with its own ground.
 fn workload() -> Vec<(Env, Vec<Gene>)> {
@@ -116,13 +117,18 @@ fn qlearning(c: &mut Criterion) {
     let key = StreamKey::new(1, 1, 0, 0);
     let mut decisions = 0u64;
     train(&env, &GuideParams::default(), &learn, key, &mut |e| {
-        decisions += u64::from(e.decisions)
+        decisions += u64::from(e.decisions);
+        ControlFlow::Continue(())
     });
     let mut group = c.benchmark_group("qlearning");
     group.throughput(Throughput::Elements(decisions));
     group.sample_size(20);
     group.bench_function("200 episodes", |b| {
-        b.iter(|| train(&env, &GuideParams::default(), &learn, key, &mut |_| {}))
+        b.iter(|| {
+            train(&env, &GuideParams::default(), &learn, key, &mut |_| {
+                ControlFlow::Continue(())
+            })
+        })
     });
     group.finish();
 }

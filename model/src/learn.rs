@@ -87,35 +87,15 @@ impl Task for LanderTask {
 }
 
 /// Trains a fresh agent for `learn.episodes` episodes of `env`, its draws
-/// keyed by `key`. `observe` sees every episode as it ends.
+/// keyed by `key`. `observe` sees every episode as it ends, and may break
+/// the training off after it; the summary then covers the episodes flown.
 pub fn train(
     env: &Env,
     guide: &GuideParams,
     learn: &LearnParams,
     key: StreamKey,
-    observe: &mut dyn FnMut(&EpisodeRecord),
-) -> Training {
-    let go_on = &mut |e: &EpisodeRecord| {
-        observe(e);
-        ControlFlow::Continue(())
-    };
-    // Never broken off, so there is always a result.
-    train_until(env, guide, learn, key, go_on).unwrap_or(Training {
-        episodes: 0,
-        first_safe: None,
-        landing_rate_last_100: 0.0,
-    })
-}
-
-/// [`train`], where `observe` may break off after any episode: then there
-/// is no result, and the episodes it saw are all there is.
-pub fn train_until(
-    env: &Env,
-    guide: &GuideParams,
-    learn: &LearnParams,
-    key: StreamKey,
     observe: &mut dyn FnMut(&EpisodeRecord) -> ControlFlow<()>,
-) -> Option<Training> {
+) -> Training {
     let mut task = LanderTask::new(env, guide, learn);
     let params = QParams {
         alpha: learn.step_size / f64::from(learn.tilings),
@@ -128,7 +108,9 @@ pub fn train_until(
     let max_steps = env.world.max_ticks.div_ceil(learn.decision_ticks.max(1)) + 1;
     let mut first_safe = None;
     let mut recent = std::collections::VecDeque::with_capacity(100);
+    let mut flown = 0;
     for episode in 1..=learn.episodes {
+        flown = episode;
         let stats = agent.episode(&mut task, &mut rng, max_steps);
         if task.landed && first_safe.is_none() {
             first_safe = Some(episode);
@@ -146,15 +128,15 @@ pub fn train_until(
             epsilon: learn.epsilon,
         });
         if seen.is_break() {
-            return None;
+            break;
         }
     }
     let landed = recent.iter().filter(|&&l| l).count();
-    Some(Training {
-        episodes: learn.episodes,
+    Training {
+        episodes: flown,
         first_safe,
         landing_rate_last_100: landed as f64 / recent.len().max(1) as f64,
-    })
+    }
 }
 
 /// A whole Q(λ) trial: everything [`run_training`] needs, so that any
@@ -171,7 +153,8 @@ pub struct TrainJob {
 pub fn run_training(job: &TrainJob) -> TrainResult {
     let mut episodes = Vec::new();
     let training = train(&job.env, &job.guide, &job.learn, job.key, &mut |e| {
-        episodes.push(e.clone())
+        episodes.push(e.clone());
+        ControlFlow::Continue(())
     });
     TrainResult { training, episodes }
 }
@@ -205,14 +188,14 @@ mod tests {
     }
 
     #[test]
-    fn training_broken_off_has_no_result_and_saw_each_episode_once() {
+    fn training_broken_off_sums_up_the_episodes_flown() {
         let env = test_env(150.0, 200.0);
         let learn = LearnParams {
             episodes: 30,
             ..LearnParams::default()
         };
         let mut seen = Vec::new();
-        let t = train_until(
+        let t = train(
             &env,
             &GuideParams::default(),
             &learn,
@@ -226,7 +209,11 @@ mod tests {
                 }
             },
         );
-        assert_eq!(t, None);
+        assert_eq!(t.episodes, 7);
+        assert_eq!(
+            t.first_safe,
+            seen.iter().find(|e| e.safe).map(|e| e.episode)
+        );
         assert_eq!(
             seen.iter().map(|e| e.episode).collect::<Vec<_>>(),
             (1..=7).collect::<Vec<_>>()
@@ -238,7 +225,10 @@ mod tests {
             &GuideParams::default(),
             &learn,
             StreamKey::new(1, 1, 0, 0),
-            &mut |e| whole.push(e.clone()),
+            &mut |e| {
+                whole.push(e.clone());
+                ControlFlow::Continue(())
+            },
         );
         assert_eq!(&whole[..7], &seen[..]);
     }
@@ -257,13 +247,17 @@ mod tests {
                 &GuideParams::default(),
                 &learn,
                 StreamKey::new(1, 1, 0, 0),
-                &mut |e| seen.push(e.clone()),
+                &mut |e| {
+                    seen.push(e.clone());
+                    ControlFlow::Continue(())
+                },
             );
             (t, seen)
         };
         let (a, seen) = run();
         assert_eq!(run(), (a.clone(), seen.clone()));
         assert_eq!(seen.len(), 30);
+        assert_eq!(a.episodes, 30);
         assert_eq!(
             seen.iter().map(|e| e.episode).collect::<Vec<_>>(),
             (1..=30).collect::<Vec<_>>()

@@ -8,7 +8,7 @@ use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::{Backend, EvalError};
 use lander_coordinator::run_files::write_json;
 use lander_coordinator::stop::Stop;
-use lander_model::learn::train_until;
+use lander_model::learn::train;
 use lander_model::EpisodeRecord;
 use lander_model::StreamKey;
 use lander_model::TrainJob;
@@ -82,8 +82,11 @@ pub fn learn(
                     ControlFlow::Continue(())
                 }
             };
-            train_until(&env, &cfg.guided, &cfg.qlearning, key, &mut until_stopped)
-                .ok_or(EvalError::Interrupted)?
+            let training = train(&env, &cfg.guided, &cfg.qlearning, key, &mut until_stopped);
+            if training.episodes < cfg.qlearning.episodes {
+                return Err(EvalError::Interrupted.into());
+            }
+            training
         }
         Some(mut pool) => {
             let job = TrainJob {
