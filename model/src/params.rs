@@ -266,7 +266,7 @@ impl LearnParams {
         )?;
         check(
             "qlearning.tilings",
-            (1..=64).contains(&self.tilings),
+            (1..=crate::tiles::MAX_TILINGS as u32).contains(&self.tilings),
             "must be 1 to 64",
         )?;
         check(

@@ -67,18 +67,24 @@ pub struct EpisodeStats {
 pub struct QLambda {
     pub params: QParams,
     weights: Vec<f64>,
-    trace: Vec<f64>,
-    /// Indices with a non-zero trace.
-    traced: Vec<usize>,
+    /// The non-zero traces, `(feature, trace)`, in the order they became
+    /// non-zero: learning and decaying read them as one run of memory, and
+    /// only the weights at random.
+    traced: Vec<(usize, f64)>,
+    /// Where each feature's trace is in `traced`, or [`UNTRACED`].
+    slot: Vec<u32>,
 }
+
+/// The `slot` of a feature whose trace is zero.
+const UNTRACED: u32 = u32::MAX;
 
 impl QLambda {
     pub fn new(size: usize, params: QParams) -> QLambda {
         QLambda {
             params,
             weights: vec![0.0; size],
-            trace: vec![0.0; size],
             traced: Vec::new(),
+            slot: vec![UNTRACED; size],
         }
     }
 
@@ -92,16 +98,19 @@ impl QLambda {
 
     /// The non-zero traces.
     pub fn traces(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
-        self.traced.iter().map(|&i| (i, self.trace[i]))
+        self.traced.iter().copied()
     }
 
     /// Accumulating traces: each active feature's trace grows by one.
     pub fn accumulate(&mut self, features: &[usize]) {
         for &i in features {
-            if self.trace[i] == 0.0 {
-                self.traced.push(i);
+            match self.slot[i] {
+                UNTRACED => {
+                    self.slot[i] = self.traced.len() as u32;
+                    self.traced.push((i, 1.0));
+                }
+                at => self.traced[at as usize].1 += 1.0,
             }
-            self.trace[i] += 1.0;
         }
     }
 
@@ -109,20 +118,27 @@ impl QLambda {
     pub fn apply(&mut self, rule: TraceRule) {
         match rule {
             TraceRule::Cut => {
-                for &i in &self.traced {
-                    self.trace[i] = 0.0;
+                for &(i, _) in &self.traced {
+                    self.slot[i] = UNTRACED;
                 }
                 self.traced.clear();
             }
             TraceRule::Decay => {
                 let k = self.params.gamma * self.params.lambda;
-                let trace = &mut self.trace;
-                self.traced.retain(|&i| {
-                    trace[i] *= k;
-                    if trace[i] < TRACE_FLOOR {
-                        trace[i] = 0.0;
+                let slot = &mut self.slot;
+                let (mut at, mut kept) = (0, 0);
+                self.traced.retain_mut(|(i, e)| {
+                    at += 1;
+                    *e *= k;
+                    if *e < TRACE_FLOOR {
+                        slot[*i] = UNTRACED;
                         return false;
                     }
+                    // A kept trace moves up past those dropped before it.
+                    if kept + 1 != at {
+                        slot[*i] = kept;
+                    }
+                    kept += 1;
                     true
                 });
             }
@@ -131,18 +147,18 @@ impl QLambda {
 
     fn learn(&mut self, delta: f64) {
         let step = self.params.alpha * delta;
-        for &i in &self.traced {
-            self.weights[i] += step * self.trace[i];
+        for &(i, e) in &self.traced {
+            self.weights[i] += step * e;
         }
     }
 
-    /// Every action's value, from `features`: each action's active
-    /// features in turn.
-    fn values(&self, features: &[usize], actions: usize) -> Vec<f64> {
-        features
-            .chunks(features.len() / actions)
-            .map(|f| self.q(f))
-            .collect()
+    /// Every action's value into `out`, from `features`: each action's
+    /// active features in turn.
+    fn values(&self, features: &[usize], out: &mut [f64]) {
+        let n = features.len() / out.len();
+        for (q, f) in out.iter_mut().zip(features.chunks(n)) {
+            *q = self.q(f);
+        }
     }
 
     /// ε-greedy, with ties among the best broken at random: with all
@@ -173,8 +189,10 @@ impl QLambda {
         // per state: the values are read from them before and after learning.
         let mut state = vec![0usize; T::ACTIONS * n];
         let mut taken = vec![0usize; n];
+        let (mut before, mut after) = (vec![0.0; T::ACTIONS], vec![0.0; T::ACTIONS]);
         task.features(&mut state);
-        let mut action = self.choose(&self.values(&state, T::ACTIONS), rng);
+        self.values(&state, &mut after);
+        let mut action = self.choose(&after, rng);
         let mut stats = EpisodeStats {
             reward: 0.0,
             steps: 0,
@@ -192,11 +210,11 @@ impl QLambda {
                 break;
             }
             task.features(&mut state);
-            let before = self.values(&state, T::ACTIONS);
+            self.values(&state, &mut before);
             self.learn(reward + self.params.gamma * max(&before) - q_sa);
             // Sutton & Barto's Figure 8.8 picks the next action from the
             // values after this update.
-            let after = self.values(&state, T::ACTIONS);
+            self.values(&state, &mut after);
             let next = self.choose(&after, rng);
             self.apply(trace_rule(&after, next));
             action = next;
