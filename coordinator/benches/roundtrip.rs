@@ -34,6 +34,7 @@ fn worker_pool() -> IpcPool {
         deadline: Duration::from_secs(30),
         max_respawns: 0,
         pin: true,
+        min_workers: 0,
         stop: Default::default(),
     };
     let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("{m}"))).expect("pool starts");

@@ -264,7 +264,7 @@ fn assert_served(script: Proc, workers: usize) -> String {
     assert!(done.status.success(), "start-workers.sh failed: {said}");
     assert_eq!(said.matches("serving run").count(), workers, "{said}");
     assert_eq!(
-        said.matches("run finished; exiting").count(),
+        said.matches("run finished after ").count(),
         workers,
         "{said}"
     );
@@ -442,7 +442,7 @@ fn start_workers_checks_its_arguments_and_passes_on_signals() {
         assert!(out.status.success(), "SIG{signal}: {said}");
         assert!(said.contains("stopping"), "SIG{signal}: {said}");
         assert_eq!(
-            said.matches("stopped by signal; exiting").count(),
+            said.matches("stopped by signal after ").count(),
             expect,
             "SIG{signal}: {said}"
         );
@@ -757,7 +757,7 @@ fn the_systemd_worker_unit_serves_a_run() {
         // Exit status 0, so Restart=on-failure leaves it stopped.
         assert!(done.status.success(), "{name}: {said}");
         assert!(said.contains("serving run"), "{name}: {said}");
-        assert!(said.contains("run finished; exiting"), "{name}: {said}");
+        assert!(said.contains("run finished after "), "{name}: {said}");
     }
 }
 

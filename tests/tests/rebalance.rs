@@ -60,6 +60,7 @@ fn an_idle_worker_takes_a_stopped_workers_queued_chunks_and_nothing_is_lost() {
         deadline: Duration::from_secs(60),
         max_respawns: 0,
         pin: false,
+        min_workers: 0,
         stop: Default::default(),
     };
     let mut pool = IpcPool::start(

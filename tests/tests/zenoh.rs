@@ -178,6 +178,103 @@ fn a_worker_with_wrong_credentials_is_refused_and_the_run_is_unaffected() {
     assert!(said.contains("cannot reach a coordinator"), "{said}");
 }
 
+/// How many jobs a worker said it answered as it left.
+fn jobs_answered(said: &str) -> u64 {
+    let (_, after) = said
+        .split_once("run finished after ")
+        .unwrap_or_else(|| panic!("the worker did not see the run finish: {said}"));
+    let jobs = after.split_whitespace().next().unwrap_or_default();
+    jobs.parse()
+        .unwrap_or_else(|_| panic!("no job count in: {said}"))
+}
+
+#[test]
+fn one_coordinator_spreads_a_generation_over_48_attached_zenoh_workers() {
+    const WORKERS: usize = 48;
+    let iox = Iox::new("zenoh_48");
+    let args = [
+        "--method",
+        "guided",
+        "--seed",
+        "2",
+        "--population",
+        "480",
+        "--max-generations",
+        "3",
+        "--max-restarts",
+        "0",
+        "--json",
+    ];
+    let calm = expected(&iox, &args);
+
+    let dir = tempfile::tempdir().unwrap();
+    let ep = endpoint(4);
+    let run_id = format!("many{}", std::process::id());
+    let many = WORKERS.to_string();
+    let mut attached = args.to_vec();
+    attached.extend([
+        "--attach",
+        "--min-workers",
+        &many,
+        "--run-id",
+        &run_id,
+        "--transport",
+        "zenoh",
+        "--listen",
+        &ep,
+    ]);
+    let coordinator = start(&iox, dir.path(), &attached);
+    let workers: Vec<Child> = (0..WORKERS)
+        .map(|_| {
+            iox.command("lander-worker")
+                .args(["--run", &run_id, "--transport", "zenoh", "--connect", &ep])
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    let out = coordinator.wait_with_output().unwrap();
+    let got = results(&out, dir.path());
+    assert_eq!(got.0, calm.0);
+    assert!(got.1 == calm.1, "generations.jsonl differs from in-process");
+    assert!(
+        stderr(&out).contains("waiting for 48 workers before the first generation"),
+        "{}",
+        stderr(&out)
+    );
+    // The first generation went out once all had joined, four chunks to
+    // each: every worker answered some of it.
+    let mut jobs = 0;
+    for worker in workers {
+        let done = worker.wait_with_output().unwrap();
+        let said = stderr(&done);
+        assert!(done.status.success(), "{said}");
+        let answered = jobs_answered(&said);
+        assert!(answered >= 1, "a worker answered nothing: {said}");
+        jobs += answered;
+    }
+    assert!(jobs >= 4 * WORKERS as u64, "{jobs} jobs in all");
+}
+
+#[test]
+fn min_workers_needs_attach_and_a_sensible_count() {
+    let iox = Iox::new("zenoh_min");
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().to_str().unwrap();
+    let alone = iox.lander(&["run", "--min-workers", "2", "--out", out_dir]);
+    assert!(!alone.status.success());
+    assert!(stderr(&alone).contains("--attach"), "{}", stderr(&alone));
+    for bad in ["0", "129"] {
+        let out = iox.lander(&["run", "--attach", "--min-workers", bad, "--out", out_dir]);
+        assert!(!out.status.success(), "--min-workers {bad}");
+        assert!(
+            stderr(&out).contains("--min-workers must be 1 to 128"),
+            "{}",
+            stderr(&out)
+        );
+    }
+}
+
 #[test]
 fn listening_beyond_loopback_without_authentication_is_warned_about() {
     let iox = Iox::new("zenoh_warn");

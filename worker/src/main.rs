@@ -138,14 +138,13 @@ fn main() -> ExitCode {
     };
     match served {
         Ok(exit) => {
-            note(
-                Note::Info,
-                match exit {
-                    Exit::RunFinished => "run finished; exiting",
-                    Exit::CoordinatorGone => "the coordinator is gone; exiting",
-                    Exit::Signal => "stopped by signal; exiting",
-                },
-            );
+            let why = match exit {
+                Exit::RunFinished => "run finished",
+                Exit::CoordinatorGone => "the coordinator is gone",
+                Exit::Signal => "stopped by signal",
+            };
+            let jobs = serve::answered();
+            note(Note::Info, &format!("{why} after {jobs} jobs; exiting"));
             ExitCode::SUCCESS
         }
         Err(e) => {

@@ -38,6 +38,10 @@ pub struct TransportArgs {
     /// they may join or leave at any time.
     #[arg(long)]
     attach: bool,
+    /// With --attach: wait for N workers to join before the first
+    /// generation, so that it is spread over all of them [default: 1].
+    #[arg(long, value_name = "N", requires = "attach")]
+    min_workers: Option<usize>,
     /// The run id that names this run's iceoryx2 services or zenoh keys
     /// [default: random].
     #[arg(long, value_name = "ID")]
@@ -125,7 +129,14 @@ impl TransportArgs {
             None => format!("{:08x}", rand::random::<u32>()),
         };
         let deadline = Duration::from_secs_f64(self.deadline);
-        let opts = pool_options(run_id, self.workers, deadline, !self.no_pin, stop)?;
+        let mut opts = pool_options(run_id, self.workers, deadline, !self.no_pin, stop)?;
+        if let Some(n) = self.min_workers {
+            anyhow::ensure!(
+                (1..=MAX_WORKERS).contains(&n),
+                "--min-workers must be 1 to {MAX_WORKERS} (got {n})"
+            );
+            opts.min_workers = n;
+        }
         let bar = bar.clone();
         let say = Box::new(move |msg: &str| bar.suspend(|| eprintln!("lander: {msg}")));
         if self.attach {
@@ -184,6 +195,7 @@ pub fn pool_options(
         deadline,
         max_respawns: 3 * workers.max(1),
         pin,
+        min_workers: 0,
         stop: stop.clone(),
     })
 }

@@ -75,6 +75,10 @@ pub struct PoolOptions {
     /// Pin each spawned worker to a CPU of its own, when there are at
     /// least as many CPUs as workers (`worker/src/cpu.rs` says why).
     pub pin: bool,
+    /// Attached workers to wait for before the first chunk goes out, so
+    /// that the first generation is spread over all of them; later
+    /// generations use whoever is there.
+    pub min_workers: usize,
     /// Asked to stop, the pool ends the run at its next look.
     pub stop: Stop,
 }

@@ -62,6 +62,7 @@ impl<T: Transport> Pool<T> {
         decode: impl Fn(usize, &[u8]) -> Result<R, String>,
         mut finished: impl FnMut(usize, &R),
     ) -> Result<Vec<R>, EvalError> {
+        self.await_first_workers()?;
         let mut todo: VecDeque<usize> = (0..chunks.len()).collect();
         let mut done: Vec<Option<R>> = (0..chunks.len()).map(|_| None).collect();
         // Chunks with an answer in hand, decoded or not.

@@ -57,15 +57,16 @@ impl<T: Transport> Pool<T> {
         self.links.len()
     }
 
-    /// Waits until `n` workers have announced themselves.
+    /// Waits until `n` workers have announced themselves, for at most
+    /// `patience` (`Duration::MAX`: for as long as it takes).
     pub fn wait_for_workers(&mut self, n: usize, patience: Duration) -> Result<(), EvalError> {
-        let end = Instant::now() + patience;
+        let end = Instant::now().checked_add(patience);
         let mut todo = VecDeque::new();
         while self.links.len() < n {
             if self.opts.stop.asked() {
                 return Err(EvalError::Interrupted);
             }
-            if Instant::now() >= end {
+            if end.is_some_and(|end| Instant::now() >= end) {
                 return Err(EvalError::WorkersLate {
                     wanted: n,
                     got: self.links.len(),
@@ -178,6 +179,21 @@ impl<T: Transport> Pool<T> {
             .map(|d| d.saturating_duration_since(Instant::now()));
         let slice = until_deadline.map_or(SLICE, |d| d.min(SLICE));
         self.transport.sleep(slice)
+    }
+
+    /// Before the first chunk: waits, as long as it takes, for the
+    /// `min_workers` the run was asked to start with.
+    pub(super) fn await_first_workers(&mut self) -> Result<(), EvalError> {
+        let wanted = std::mem::take(&mut self.opts.min_workers);
+        if self.links.len() < wanted {
+            self.tell_waiting();
+            (self.say)(&format!(
+                "waiting for {wanted} workers before the first generation ({} so far)",
+                self.links.len()
+            ));
+            self.wait_for_workers(wanted, Duration::MAX)?;
+        }
+        Ok(())
     }
 
     pub(super) fn tell_waiting(&mut self) {

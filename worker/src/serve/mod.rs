@@ -15,6 +15,17 @@ use lander_protocol::wire::{
 
 pub use iceoryx::serve;
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Jobs this process has answered, refusals included: one worker per
+/// process, so one count.
+static ANSWERED: AtomicU64 = AtomicU64::new(0);
+
+/// Jobs answered so far.
+pub fn answered() -> u64 {
+    ANSWERED.load(Ordering::Relaxed)
+}
+
 /// Why a worker stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Exit {
@@ -59,6 +70,7 @@ pub fn answer(
             (status, e.to_string().into_bytes())
         }
     };
+    ANSWERED.fetch_add(1, Ordering::Relaxed);
     let result = ResultHeader {
         version: PROTOCOL_VERSION,
         status: status as u32,

@@ -134,6 +134,7 @@ pub fn pool(links: Vec<Recorder>, say: Say) -> Pool<Nowhere> {
         deadline: Duration::from_secs(1),
         max_respawns: 0,
         pin: false,
+        min_workers: 0,
         stop: Stop::new(),
     };
     let mut pool = Pool::with_transport(Nowhere, opts, say).unwrap();

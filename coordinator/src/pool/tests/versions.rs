@@ -69,6 +69,7 @@ fn a_spawned_worker_of_another_build_ends_the_wait_at_once() {
         deadline: Duration::from_secs(1),
         max_respawns: 0,
         pin: false,
+        min_workers: 0,
         stop: Stop::new(),
     };
     let mut pool = Pool::with_transport(OtherBuild { pid_file }, opts, Box::new(|_| ())).unwrap();
