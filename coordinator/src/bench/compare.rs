@@ -138,6 +138,7 @@ mod tests {
             rtt_max_us: None,
             overhead_p99_us: None,
             coordinator_cpu_us_per_generation: 0.0,
+            coordinator_cpu_us_per_chunk: None,
             worker_utilisation: None,
             generation: compute_us.map(|compute_us| Breakdown {
                 compute_us,
@@ -389,6 +390,7 @@ mod tests {
             "\"rtt_max_us\"",
             "\"overhead_p99_us\"",
             "\"coordinator_cpu_us_per_generation\"",
+            "\"coordinator_cpu_us_per_chunk\"",
             "\"worker_utilisation\"",
             "\"generation\":{\"wall_us\"",
             "\"hash\"",

@@ -8,7 +8,7 @@ use crate::evaluator::{Batch, EvalError, Evaluator, InProcess};
 use crate::ga::Genome;
 use crate::pool::{ChunkTiming, IpcPool, ZenohPool};
 use lander_model::Evaluation;
-use lander_protocol::host::thread_cpu_time;
+use lander_protocol::host::{process_cpu_time, thread_cpu_time};
 use serde::Serialize;
 use std::hash::{DefaultHasher, Hash, Hasher};
 use std::time::{Duration, Instant};
@@ -128,6 +128,9 @@ pub struct Tally {
     pub ticks: u64,
     pub elapsed: Duration,
     pub coordinator_cpu: Duration,
+    /// The whole process's CPU time inside `evaluate`: the coordinator's
+    /// thread and the transport's.
+    pub process_cpu: Duration,
     pub generations: u64,
     pub timings: Vec<ChunkTiming>,
     /// One per generation evaluated by worker processes.
@@ -179,12 +182,13 @@ impl Mode {
                 genomes,
             })
             .collect();
-        let cpu = thread_cpu_time();
+        let (cpu, process_cpu) = (thread_cpu_time(), process_cpu_time());
         let started = Instant::now();
         let evaluations = self.evaluator.evaluate_many(batches)?;
         let wall = started.elapsed();
         self.tally.elapsed += wall;
         self.tally.coordinator_cpu += thread_cpu_time().saturating_sub(cpu);
+        self.tally.process_cpu += process_cpu_time().saturating_sub(process_cpu);
         self.tally.generations += 1;
         for (evaluations, genomes) in evaluations.iter().zip(&genomes) {
             self.tally.genomes += evaluations.len() as u64;
@@ -247,6 +251,10 @@ pub struct ModeReport {
     /// The p99 of round trip minus compute: see [`overheads`].
     pub overhead_p99_us: Option<f64>,
     pub coordinator_cpu_us_per_generation: f64,
+    /// For worker processes: the coordinator process's CPU time (all its
+    /// threads, the transport's included) per chunk answered, what bounds
+    /// how many workers one coordinator feeds.
+    pub coordinator_cpu_us_per_chunk: Option<f64>,
     /// Share of the workers' time spent computing, for worker processes.
     pub worker_utilisation: Option<f64>,
     /// Where a generation's time went, on average, for worker processes.
@@ -276,6 +284,8 @@ impl Mode {
             overhead_p99_us: percentile(&mut overhead, 0.99).map(micros),
             coordinator_cpu_us_per_generation: micros(t.coordinator_cpu)
                 / t.generations.max(1) as f64,
+            coordinator_cpu_us_per_chunk: (!t.timings.is_empty())
+                .then(|| micros(t.process_cpu) / t.timings.len() as f64),
             worker_utilisation: (!t.timings.is_empty())
                 .then(|| compute.as_secs_f64() / (secs * workers.max(1) as f64)),
             generation: Breakdown::mean(&t.breakdowns),

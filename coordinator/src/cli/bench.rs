@@ -242,7 +242,7 @@ fn print_table(r: &Report) {
         r.population, r.generations, r.rounds, r.workers, r.chunks_per_worker
     );
     println!(
-        "{:<12} {:>12} {:>10} {:>9} {:>9} {:>9} {:>12} {:>13} {:>6}",
+        "{:<12} {:>12} {:>10} {:>9} {:>9} {:>9} {:>12} {:>13} {:>15} {:>6}",
         "mode",
         "genomes/s",
         "Mticks/s",
@@ -251,12 +251,13 @@ fn print_table(r: &Report) {
         "rtt max",
         "overhead p99",
         "coord CPU/gen",
+        "coord CPU/chunk",
         "util"
     );
     let us = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.0} µs"));
     for m in &r.modes {
         println!(
-            "{:<12} {:>12.0} {:>10.1} {:>9} {:>9} {:>9} {:>12} {:>10.0} µs {:>6}",
+            "{:<12} {:>12.0} {:>10.1} {:>9} {:>9} {:>9} {:>12} {:>10.0} µs {:>15} {:>6}",
             m.name,
             m.genomes_per_s,
             m.ticks_per_s / 1e6,
@@ -265,6 +266,8 @@ fn print_table(r: &Report) {
             us(m.rtt_max_us),
             us(m.overhead_p99_us),
             m.coordinator_cpu_us_per_generation,
+            m.coordinator_cpu_us_per_chunk
+                .map_or("-".into(), |c| format!("{c:.1} µs")),
             m.worker_utilisation
                 .map_or("-".into(), |u| format!("{:.0}%", u * 100.0)),
         );
