@@ -124,17 +124,37 @@ impl Children {
     }
 
     /// Waits for every worker to leave after being told the run is over,
-    /// killing those that do not within a few seconds.
-    pub fn stop_all(&mut self) {
+    /// killing those that do not within a few seconds; returns how many it
+    /// killed. A worker whose pid is not in `told` never joined (a short
+    /// run can end before a slow worker announces itself), so nothing told
+    /// it the run is over: it gets SIGTERM at once rather than the wait.
+    pub fn stop_all(&mut self, told: &[u32]) -> usize {
+        for (c, _) in &self.procs {
+            if !told.contains(&c.id()) {
+                terminate(c.id());
+            }
+        }
         let patience = Instant::now() + Duration::from_secs(5);
         while !self.procs.is_empty() && Instant::now() < patience {
             self.exited();
             std::thread::sleep(Duration::from_millis(5));
         }
+        let stuck = self.procs.len();
         for (mut c, _) in self.procs.drain(..) {
             let _ = c.kill();
             let _ = c.wait();
         }
+        stuck
+    }
+}
+
+/// Sends SIGTERM to `pid`, a child of this process not yet reaped, so that
+/// its pid cannot have been reused.
+fn terminate(pid: u32) {
+    if let Ok(pid) = libc::pid_t::try_from(pid) {
+        // SAFETY: kill(2) takes a pid and a signal number and has no other
+        // effect on this process.
+        unsafe { libc::kill(pid, libc::SIGTERM) };
     }
 }
 
@@ -199,4 +219,25 @@ pub fn kill_worker_child(parent: u32, pid: u32) -> bool {
         )
     };
     sent == 0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::os::unix::fs::PermissionsExt;
+
+    #[test]
+    fn a_worker_that_never_joined_is_terminated_not_waited_for_and_killed() {
+        let dir = tempfile::tempdir().unwrap();
+        // A stand-in worker that never announces itself and would take 30 s
+        // to end on its own.
+        let exe = dir.path().join("worker.sh");
+        std::fs::write(&exe, "#!/bin/sh\nexec sleep 30\n").unwrap();
+        std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
+        let mut children = Children::new(exe, "r".into(), Vec::new(), 0, Vec::new());
+        children.spawn().unwrap();
+        children.spawn().unwrap();
+        assert_eq!(children.stop_all(&[]), 0, "a worker had to be killed");
+        assert!(children.is_empty());
+    }
 }

@@ -233,7 +233,13 @@ impl<T: Transport> Drop for Pool<T> {
             link.shut_down();
         }
         self.await_leaving(self.transport.farewell());
-        self.children.stop_all();
+        let told: Vec<u32> = self.links.iter().map(WorkerLink::pid).collect();
+        let stuck = self.children.stop_all(&told);
+        if stuck > 0 {
+            (self.say)(&format!(
+                "killed {stuck} worker(s) that did not leave when the run ended"
+            ));
+        }
         self.transport.close();
     }
 }
