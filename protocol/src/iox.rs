@@ -25,6 +25,13 @@ pub const DEFAULT_PREFIX: &str = "lander_";
 pub const PREFIX_ENV: &str = "LANDER_IOX2_PREFIX";
 pub const ROOT_ENV: &str = "LANDER_IOX2_ROOT";
 
+/// Where iceoryx2 keeps its node and service files unless [`ROOT_ENV`]
+/// says otherwise, when the host has a `/dev/shm`: tmpfs, so that opening
+/// a service never waits on a disk's fsync. iceoryx2's own default,
+/// `/tmp/iceoryx2`, is on disk on many hosts, and there a run with 2
+/// workers took 4–18 ms longer to start (docs/performance.md).
+pub const DEFAULT_ROOT: &str = "/dev/shm/lander-iceoryx2";
+
 /// The most workers one run takes.
 pub const MAX_WORKERS: usize = 128;
 
@@ -88,7 +95,12 @@ pub fn config() -> Result<Config, IpcError> {
     let prefix = std::env::var(PREFIX_ENV).unwrap_or_else(|_| DEFAULT_PREFIX.into());
     config.global.prefix =
         FileName::new(prefix.as_bytes()).map_err(fail(format!("{PREFIX_ENV}={prefix}")))?;
-    if let Ok(root) = std::env::var(ROOT_ENV) {
+    let root = std::env::var(ROOT_ENV).ok().or_else(|| {
+        std::path::Path::new("/dev/shm")
+            .is_dir()
+            .then(|| DEFAULT_ROOT.to_string())
+    });
+    if let Some(root) = root {
         let path = Path::new(root.as_bytes()).map_err(fail(format!("{ROOT_ENV}={root}")))?;
         config.global.set_root_path(&path);
     }
