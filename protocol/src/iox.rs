@@ -29,7 +29,7 @@ pub const ROOT_ENV: &str = "LANDER_IOX2_ROOT";
 /// says otherwise, when the host has a `/dev/shm`: tmpfs, so that opening
 /// a service never waits on a disk's fsync. iceoryx2's own default,
 /// `/tmp/iceoryx2`, is on disk on many hosts, and there a run with 2
-/// workers took 4–18 ms longer to start (docs/performance.md).
+/// workers took 4–17 ms longer to start (docs/performance.md).
 pub const DEFAULT_ROOT: &str = "/dev/shm/lander-iceoryx2";
 
 /// The most workers one run takes.
