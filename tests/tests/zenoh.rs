@@ -47,6 +47,31 @@ fn start(iox: &Iox, out: &Path, args: &[&str]) -> Child {
         .unwrap()
 }
 
+/// `args` for a coordinator that waits for zenoh workers to attach to run
+/// `run_id` at `ep`.
+fn attached<'a>(args: &[&'a str], run_id: &'a str, ep: &'a str) -> Vec<&'a str> {
+    let mut all = args.to_vec();
+    all.extend([
+        "--attach",
+        "--run-id",
+        run_id,
+        "--transport",
+        "zenoh",
+        "--listen",
+        ep,
+    ]);
+    all
+}
+
+/// A `lander-worker` that attaches to run `run_id` at `ep` over zenoh.
+fn zenoh_worker(iox: &Iox, run_id: &str, ep: &str) -> std::process::Command {
+    let mut worker = iox.command("lander-worker");
+    worker
+        .args(["--run", run_id, "--transport", "zenoh", "--connect", ep])
+        .stderr(Stdio::piped());
+    worker
+}
+
 /// The summary without wall time, and `generations.jsonl`.
 fn results(out: &std::process::Output, dir: &Path) -> (Value, Vec<u8>) {
     assert!(out.status.success(), "{}", stderr(out));
@@ -135,25 +160,13 @@ fn a_worker_with_wrong_credentials_is_refused_and_the_run_is_unaffected() {
 
     let ep = endpoint(2);
     let run_id = format!("auth{}", std::process::id());
-    let mut attached = args.clone();
-    attached.extend([
-        "--attach",
-        "--run-id",
-        &run_id,
-        "--transport",
-        "zenoh",
-        "--listen",
-        &ep,
-        "--users",
-        users.to_str().unwrap(),
-    ]);
+    let mut coordinator_args = attached(&args, &run_id, &ep);
+    coordinator_args.extend(["--users", users.to_str().unwrap()]);
     let out_dir = dir.path().join("run");
-    let coordinator = start(&iox, &out_dir, &attached);
+    let coordinator = start(&iox, &out_dir, &coordinator_args);
     let worker = |creds: &Path| {
-        iox.command("lander-worker")
-            .args(["--run", &run_id, "--transport", "zenoh", "--connect", &ep])
+        zenoh_worker(&iox, &run_id, &ep)
             .args(["--credentials", creds.to_str().unwrap()])
-            .stderr(Stdio::piped())
             .spawn()
             .unwrap()
     };
@@ -211,27 +224,11 @@ fn one_coordinator_spreads_a_generation_over_48_attached_zenoh_workers() {
     let ep = endpoint(4);
     let run_id = format!("many{}", std::process::id());
     let many = WORKERS.to_string();
-    let mut attached = args.to_vec();
-    attached.extend([
-        "--attach",
-        "--min-workers",
-        &many,
-        "--run-id",
-        &run_id,
-        "--transport",
-        "zenoh",
-        "--listen",
-        &ep,
-    ]);
-    let coordinator = start(&iox, dir.path(), &attached);
+    let mut coordinator_args = attached(&args, &run_id, &ep);
+    coordinator_args.extend(["--min-workers", &many]);
+    let coordinator = start(&iox, dir.path(), &coordinator_args);
     let workers: Vec<Child> = (0..WORKERS)
-        .map(|_| {
-            iox.command("lander-worker")
-                .args(["--run", &run_id, "--transport", "zenoh", "--connect", &ep])
-                .stderr(Stdio::piped())
-                .spawn()
-                .unwrap()
-        })
+        .map(|_| zenoh_worker(&iox, &run_id, &ep).spawn().unwrap())
         .collect();
     let out = coordinator.wait_with_output().unwrap();
     let got = results(&out, dir.path());
