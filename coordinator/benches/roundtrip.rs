@@ -35,6 +35,7 @@ fn worker_pool() -> IpcPool {
         max_respawns: 0,
         pin: true,
         min_workers: 0,
+        spin: std::time::Duration::ZERO,
         stop: Default::default(),
     };
     let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("{m}"))).expect("pool starts");

@@ -9,9 +9,11 @@
 //! - [`envelope`]: frames for the network, and the one decoder of network
 //!   bytes; [`net`]: zenoh's session configurations.
 //! - [`host`]: the host's CPUs and clocks, which both sides read.
+//! - [`spin`]: the bounded, adaptive spin before a sleep.
 
 pub mod envelope;
 pub mod host;
 pub mod iox;
 pub mod net;
+pub mod spin;
 pub mod wire;

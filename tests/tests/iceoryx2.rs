@@ -340,6 +340,11 @@ fn bad_worker_options_are_refused() {
         ),
         (vec!["run", "--threads", "5000"], "to 1024"),
         (
+            vec!["run", "--workers", "1", "--spin-us", "20000"],
+            "--spin-us must be at most 10000",
+        ),
+        (vec!["bench", "--spin-us", "20000"], "--spin-us"),
+        (
             vec!["run", "--workers", "1", "--users", "u.txt"],
             "--users is for --transport zenoh",
         ),

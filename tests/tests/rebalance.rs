@@ -61,6 +61,7 @@ fn an_idle_worker_takes_a_stopped_workers_queued_chunks_and_nothing_is_lost() {
         max_respawns: 0,
         pin: false,
         min_workers: 0,
+        spin: std::time::Duration::ZERO,
         stop: Default::default(),
     };
     let mut pool = IpcPool::start(

@@ -9,11 +9,13 @@ mod serve;
 use clap::{Parser, ValueEnum};
 use lander_protocol::iox::check_run_id;
 use lander_protocol::net::NetOptions;
+use lander_protocol::spin::Spin;
 use serve::{Exit, Note};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
+use std::time::Duration;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -51,6 +53,12 @@ struct Args {
     /// one CPU each when N is at most the number of CPUs).
     #[arg(long, value_name = "N")]
     cpu: Option<usize>,
+    /// iceoryx2: after answering, poll for the next job this long before
+    /// sleeping, shorter and shorter while none comes (0: never). Only for
+    /// a worker with a CPU of its own: `lander run --workers N` passes it
+    /// when the coordinator has a CPU left over.
+    #[arg(long, value_name = "MICROSECONDS", default_value_t = 0)]
+    spin_us: u64,
     /// iceoryx2 for a coordinator on this host, zenoh for one anywhere.
     #[arg(long, value_enum, default_value_t = TransportArg::Iceoryx2)]
     transport: TransportArg,
@@ -114,7 +122,10 @@ fn main() -> ExitCode {
         }
     };
     let served = match args.transport {
-        TransportArg::Iceoryx2 => serve::serve(&args.run, id, &note).map_err(|e| e.to_string()),
+        TransportArg::Iceoryx2 => {
+            let spin = Spin::new(Duration::from_micros(args.spin_us));
+            serve::serve(&args.run, id, spin, &note).map_err(|e| e.to_string())
+        }
         TransportArg::Zenoh => {
             if args.connect.is_empty() && args.zenoh_config.is_none() {
                 say("error: --transport zenoh needs --connect ENDPOINT (or a --zenoh-config)");

@@ -84,6 +84,11 @@ pub struct BenchArgs {
     /// Let the workers run on any CPU instead of one CPU each.
     #[arg(long)]
     no_pin: bool,
+    /// Microseconds a spawned worker with a CPU of its own polls for its
+    /// next chunk before sleeping, as `lander run --spin-us` (0: never)
+    /// [default: as `lander run`].
+    #[arg(long, value_name = "MICROSECONDS", value_parser = clap::value_parser!(u64).range(0..=10_000))]
+    spin_us: Option<u64>,
     /// With --stress: worker kills per second, on average.
     #[arg(long, value_name = "PER_S", default_value_t = 2.0)]
     kill_rate: f64,
@@ -106,6 +111,9 @@ fn pool_options_for(
 ) -> anyhow::Result<PoolOptions> {
     let mut opts = pool_options(id, workers, Duration::from_secs(60), !args.no_pin, stop)?;
     opts.chunks_per_worker = usize::from(args.chunks_per_worker.unwrap_or(DEFAULT_CHUNKS));
+    if let Some(us) = args.spin_us {
+        opts.spin = Duration::from_micros(us);
+    }
     Ok(opts)
 }
 

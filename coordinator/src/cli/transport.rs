@@ -25,6 +25,15 @@ pub enum TransportArg {
 /// The longest `--deadline`: a day for one chunk is already no deadline.
 const MAX_DEADLINE_S: f64 = 86_400.0;
 
+/// How long a spawned worker with a CPU of its own polls for its next
+/// chunk before sleeping (docs/performance.md measures it).
+const DEFAULT_SPIN_US: u64 = 1_000;
+const DEFAULT_SPIN: Duration = Duration::from_micros(DEFAULT_SPIN_US);
+
+/// The longest `--spin-us`: beyond a few milliseconds a sleep costs
+/// nothing next to the wait.
+const MAX_SPIN_US: u64 = 10_000;
+
 /// Where a zenoh coordinator listens unless told otherwise: this host only.
 const DEFAULT_LISTEN: &str = "tcp/127.0.0.1:7447";
 
@@ -68,6 +77,11 @@ pub struct TransportArgs {
     /// free when other programs need the same CPUs.
     #[arg(long)]
     no_pin: bool,
+    /// Microseconds a spawned iceoryx2 worker polls for its next chunk
+    /// before sleeping, halving while none comes; only when every worker
+    /// and the coordinator have a CPU of their own. 0 never spins.
+    #[arg(long, value_name = "MICROSECONDS", default_value_t = DEFAULT_SPIN_US)]
+    spin_us: u64,
 }
 
 impl TransportArgs {
@@ -130,6 +144,12 @@ impl TransportArgs {
         };
         let deadline = Duration::from_secs_f64(self.deadline);
         let mut opts = pool_options(run_id, self.workers, deadline, !self.no_pin, stop)?;
+        anyhow::ensure!(
+            self.spin_us <= MAX_SPIN_US,
+            "--spin-us must be at most {MAX_SPIN_US} (got {})",
+            self.spin_us
+        );
+        opts.spin = Duration::from_micros(self.spin_us);
         if let Some(n) = self.min_workers {
             anyhow::ensure!(
                 (1..=MAX_WORKERS).contains(&n),
@@ -196,6 +216,7 @@ pub fn pool_options(
         max_respawns: 3 * workers.max(1),
         pin,
         min_workers: 0,
+        spin: DEFAULT_SPIN,
         stop: stop.clone(),
     })
 }

@@ -79,6 +79,10 @@ pub struct PoolOptions {
     /// that the first generation is spread over all of them; later
     /// generations use whoever is there.
     pub min_workers: usize,
+    /// How long a spawned iceoryx2 worker polls for its next chunk before
+    /// it sleeps, when each worker and the coordinator have a CPU of their
+    /// own (`lander_protocol::spin` says how it adapts); zero never spins.
+    pub spin: Duration,
     /// Asked to stop, the pool ends the run at its next look.
     pub stop: Stop,
 }

@@ -32,7 +32,7 @@ impl<T: Transport> Pool<T> {
             children: Children::new(
                 opts.worker_exe.clone(),
                 opts.run_id.clone(),
-                transport.worker_args(),
+                worker_args(&transport, &opts),
                 opts.max_respawns,
                 cpus_for(&opts),
             ),
@@ -242,6 +242,19 @@ impl<T: Transport> Drop for Pool<T> {
         }
         self.transport.close();
     }
+}
+
+/// What spawned workers are told on their command line: the transport's
+/// arguments, and a spin budget where every worker and the coordinator
+/// have a CPU of their own, so that a spinning worker takes a CPU from no
+/// other process of the run.
+fn worker_args<T: Transport>(transport: &T, opts: &PoolOptions) -> Vec<String> {
+    let mut args = transport.worker_args();
+    let cpus = lander_protocol::host::allowed_cpus().len();
+    if !opts.spin.is_zero() && opts.spawn < cpus {
+        args.extend(["--spin-us".to_string(), opts.spin.as_micros().to_string()]);
+    }
+    args
 }
 
 /// The CPUs to pin `opts.spawn` workers to: one each, or none at all when

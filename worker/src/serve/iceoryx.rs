@@ -6,6 +6,7 @@ use super::{answer, Exit, Note};
 use iceoryx2::prelude::*;
 use iceoryx2::waitset::WaitSetRunResult;
 use lander_protocol::iox::{self, IpcError, RunNames, SHUTDOWN_EVENT};
+use lander_protocol::spin::Spin;
 use lander_protocol::wire::{ResultHeader, WorkerAnnounce, PROTOCOL_VERSION};
 use std::cell::{Cell, RefCell};
 use std::time::Duration;
@@ -15,7 +16,12 @@ use std::time::Duration;
 const HOUSEKEEPING: Duration = Duration::from_millis(500);
 
 /// Serves run `run` as worker `id`, telling the user through `say`.
-pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcError> {
+pub fn serve(
+    run: &str,
+    id: u64,
+    mut spin: Spin,
+    say: &dyn Fn(Note, &str),
+) -> Result<Exit, IpcError> {
     iox::quiet_logs();
     let config = iox::config()?;
     let names = RunNames::new(run);
@@ -87,6 +93,7 @@ pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcEr
     };
     let mut on_event = |attachment: WaitSetAttachmentId<ipc::Service>| {
         if attachment.has_event_from(&job_guard) {
+            spin.woke();
             let shutdown = match shutdown_asked(&jobs) {
                 Ok(asked) => asked,
                 Err(e) => return stop(Err(e)),
@@ -99,10 +106,17 @@ pub fn serve(run: &str, id: u64, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcEr
                     .map(|_| ())
                     .map_err(iox::fail("waking the coordinator"))
             };
-            match serve_waiting(&server, id, say, drained) {
+            match serve_waiting(&server, id, say, &drained) {
                 Ok(0) => {}
                 Ok(_) => served.set(true),
                 Err(e) => return stop(Err(e)),
+            }
+            // The next chunk often comes soon: look for it a while before
+            // sleeping, where this worker has a CPU of its own.
+            while spin.poll(|| server.has_requests().unwrap_or(true)) {
+                if let Err(e) = serve_waiting(&server, id, say, &drained) {
+                    return stop(Err(e));
+                }
             }
         } else if attachment.has_event_from(&tick) {
             node.try_cleanup_dead_nodes();
@@ -206,7 +220,7 @@ fn serve_waiting(
     server: &Server,
     id: u64,
     say: &dyn Fn(Note, &str),
-    drained: impl Fn() -> Result<(), IpcError>,
+    drained: &impl Fn() -> Result<(), IpcError>,
 ) -> Result<usize, IpcError> {
     let mut count = 0;
     while let Some(request) = server.receive().map_err(iox::fail("receiving a job"))? {

@@ -135,6 +135,7 @@ pub fn pool(links: Vec<Recorder>, say: Say) -> Pool<Nowhere> {
         max_respawns: 0,
         pin: false,
         min_workers: 0,
+        spin: std::time::Duration::ZERO,
         stop: Stop::new(),
     };
     let mut pool = Pool::with_transport(Nowhere, opts, say).unwrap();

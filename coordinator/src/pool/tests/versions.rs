@@ -70,6 +70,7 @@ fn a_spawned_worker_of_another_build_ends_the_wait_at_once() {
         max_respawns: 0,
         pin: false,
         min_workers: 0,
+        spin: std::time::Duration::ZERO,
         stop: Stop::new(),
     };
     let mut pool = Pool::with_transport(OtherBuild { pid_file }, opts, Box::new(|_| ())).unwrap();
