@@ -134,10 +134,15 @@ impl Children {
                 terminate(c.id());
             }
         }
+        // Workers told to leave exit within a couple of milliseconds: look
+        // often, and not once more after the last has gone.
         let patience = Instant::now() + Duration::from_secs(5);
-        while !self.procs.is_empty() && Instant::now() < patience {
+        loop {
             self.exited();
-            std::thread::sleep(Duration::from_millis(5));
+            if self.procs.is_empty() || Instant::now() >= patience {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(1));
         }
         let stuck = self.procs.len();
         for (mut c, _) in self.procs.drain(..) {
