@@ -251,10 +251,16 @@ impl<T: Transport> Drop for Pool<T> {
 fn worker_args<T: Transport>(transport: &T, opts: &PoolOptions) -> Vec<String> {
     let mut args = transport.worker_args();
     let cpus = lander_protocol::host::allowed_cpus().len();
-    if !opts.spin.is_zero() && opts.spawn < cpus {
-        args.extend(["--spin-us".to_string(), opts.spin.as_micros().to_string()]);
+    if let Some(us) = spin_us(opts.spin, opts.spawn, cpus) {
+        args.extend(["--spin-us".to_string(), us.to_string()]);
     }
     args
+}
+
+/// The spin budget for `workers` spawned workers on `cpus` CPUs, if they
+/// may spin at all: only when each of them and the coordinator has a CPU.
+fn spin_us(spin: Duration, workers: usize, cpus: usize) -> Option<u128> {
+    (!spin.is_zero() && workers < cpus).then_some(spin.as_micros())
 }
 
 /// The CPUs to pin `opts.spawn` workers to: one each, or none at all when
@@ -265,4 +271,21 @@ fn cpus_for(opts: &PoolOptions) -> Vec<usize> {
         return Vec::new();
     }
     cpus[..opts.spawn].to_vec()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spin_us;
+    use std::time::Duration;
+
+    #[test]
+    fn workers_spin_only_where_they_and_the_coordinator_have_a_cpu_each() {
+        let ms = Duration::from_millis(1);
+        // 1, 2 and 3 workers on 2 CPUs: only the one worker spins.
+        assert_eq!(spin_us(ms, 1, 2), Some(1000));
+        assert_eq!(spin_us(ms, 2, 2), None);
+        assert_eq!(spin_us(ms, 3, 2), None);
+        assert_eq!(spin_us(ms, 7, 8), Some(1000));
+        assert_eq!(spin_us(Duration::ZERO, 1, 8), None);
+    }
 }
