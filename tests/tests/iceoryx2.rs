@@ -160,6 +160,45 @@ fn under_way(iox: &Iox, dir: &Path, args: &[&str], lines: usize) -> (Child, Vec<
     (child, workers)
 }
 
+/// Spawned workers are told to spin only where they and the coordinator
+/// have a CPU each: with one worker fewer than the CPUs, and never with as
+/// many workers as CPUs. Read from the workers' own command lines.
+#[test]
+fn spawned_workers_spin_only_with_a_cpu_to_spare() {
+    let iox = Iox::new("spin");
+    // The CPUs the coordinator counts: those this process may run on.
+    let cpus = lander_protocol::host::allowed_cpus().len().max(1);
+    let spins = |workers: usize| -> Vec<bool> {
+        let dir = tempfile::tempdir().unwrap();
+        let cfg = never_lands(dir.path());
+        let many = workers.to_string();
+        let mut args = LONG.to_vec();
+        args.extend(["--config", &cfg, "--workers", &many]);
+        let child = start(&iox, dir.path(), &args);
+        let log = dir.path().join("generations.jsonl");
+        assert!(
+            wait_until(60, || lines_in(&log) >= 5),
+            "the run did not get going"
+        );
+        let told: Vec<bool> = worker_children(child.id())
+            .iter()
+            .map(|pid| {
+                let cmdline = fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
+                String::from_utf8_lossy(&cmdline).contains("--spin-us")
+            })
+            .collect();
+        signal(child.id(), "INT");
+        let out = child.wait_with_output().unwrap();
+        assert_eq!(out.status.code(), Some(130), "{}", stderr(&out));
+        assert_eq!(told.len(), workers);
+        told
+    };
+    assert_eq!(spins(cpus), vec![false; cpus], "as many workers as CPUs");
+    if cpus > 1 {
+        assert_eq!(spins(cpus - 1), vec![true; cpus - 1], "a CPU to spare");
+    }
+}
+
 /// Runs LONG over two spawned workers, doing `disturb` to them once 40
 /// generations are written, and checks the results match an undisturbed
 /// in-process run.
