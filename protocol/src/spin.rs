@@ -13,6 +13,10 @@
 
 use std::time::{Duration, Instant};
 
+/// The longest spin either side accepts, in microseconds: beyond a few
+/// milliseconds a sleep costs nothing next to the wait.
+pub const MAX_SPIN_US: u64 = 10_000;
+
 /// Below this share of the full budget, a spin is not worth starting.
 const FLOOR_SHARE: u32 = 16;
 

@@ -382,6 +382,11 @@ fn bad_worker_options_are_refused() {
             vec!["run", "--workers", "1", "--spin-us", "20000"],
             "--spin-us must be at most 10000",
         ),
+        // In-process, where nothing spins, it is refused all the same.
+        (
+            vec!["run", "--spin-us", "20000"],
+            "--spin-us must be at most 10000",
+        ),
         (vec!["bench", "--spin-us", "20000"], "--spin-us"),
         (
             vec!["run", "--workers", "1", "--users", "u.txt"],
@@ -410,6 +415,11 @@ fn bad_worker_options_are_refused() {
     let long = "a".repeat(65);
     for (args, needle) in [
         (vec!["--run", &long], "1 to 64"),
+        // A spin past what an Instant can add: refused, not a panic.
+        (
+            vec!["--run", "somerun", "--spin-us", "18446744073709551615"],
+            "--spin-us",
+        ),
         (
             vec!["--run", "somerun", "--credentials", "c.txt"],
             "--credentials is for --transport zenoh",

@@ -9,7 +9,7 @@ mod serve;
 use clap::{Parser, ValueEnum};
 use lander_protocol::iox::check_run_id;
 use lander_protocol::net::NetOptions;
-use lander_protocol::spin::Spin;
+use lander_protocol::spin::{Spin, MAX_SPIN_US};
 use serve::{Exit, Note};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -57,7 +57,12 @@ struct Args {
     /// sleeping, shorter and shorter while none comes (0: never). Only for
     /// a worker with a CPU of its own: `lander run --workers N` passes it
     /// when the coordinator has a CPU left over.
-    #[arg(long, value_name = "MICROSECONDS", default_value_t = 0)]
+    #[arg(
+        long,
+        value_name = "MICROSECONDS",
+        default_value_t = 0,
+        value_parser = clap::value_parser!(u64).range(0..=MAX_SPIN_US)
+    )]
     spin_us: u64,
     /// iceoryx2 for a coordinator on this host, zenoh for one anywhere.
     #[arg(long, value_enum, default_value_t = TransportArg::Iceoryx2)]

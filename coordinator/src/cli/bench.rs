@@ -15,6 +15,7 @@ use lander_coordinator::stop::Stop;
 use lander_model::Method;
 use lander_protocol::iox::MAX_WORKERS;
 use lander_protocol::net::{coordinator_config, NetOptions};
+use lander_protocol::spin::MAX_SPIN_US;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -87,7 +88,7 @@ pub struct BenchArgs {
     /// Microseconds a spawned worker with a CPU of its own polls for its
     /// next chunk before sleeping, as `lander run --spin-us` (0: never)
     /// [default: as `lander run`].
-    #[arg(long, value_name = "MICROSECONDS", value_parser = clap::value_parser!(u64).range(0..=10_000))]
+    #[arg(long, value_name = "MICROSECONDS", value_parser = clap::value_parser!(u64).range(0..=MAX_SPIN_US))]
     spin_us: Option<u64>,
     /// With --stress: worker kills per second, on average.
     #[arg(long, value_name = "PER_S", default_value_t = 2.0)]

@@ -11,6 +11,7 @@ use lander_coordinator::pool::{IpcPool, Pool, PoolOptions, Say, DEPTH};
 use lander_coordinator::stop::Stop;
 use lander_protocol::iox::{check_run_id, MAX_WORKERS};
 use lander_protocol::net::{coordinator_config, strangers_warning, NetOptions};
+use lander_protocol::spin::MAX_SPIN_US;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -29,10 +30,6 @@ const MAX_DEADLINE_S: f64 = 86_400.0;
 /// chunk before sleeping (docs/performance.md measures it).
 const DEFAULT_SPIN_US: u64 = 1_000;
 const DEFAULT_SPIN: Duration = Duration::from_micros(DEFAULT_SPIN_US);
-
-/// The longest `--spin-us`: beyond a few milliseconds a sleep costs
-/// nothing next to the wait.
-const MAX_SPIN_US: u64 = 10_000;
 
 /// Where a zenoh coordinator listens unless told otherwise: this host only.
 const DEFAULT_LISTEN: &str = "tcp/127.0.0.1:7447";
@@ -111,6 +108,13 @@ impl TransportArgs {
             "--deadline must be more than 0 and at most {MAX_DEADLINE_S} seconds (got {:?})",
             self.deadline
         );
+        // Checked even where nothing spins, so that a bad value is never
+        // taken in silence.
+        anyhow::ensure!(
+            self.spin_us <= MAX_SPIN_US,
+            "--spin-us must be at most {MAX_SPIN_US} (got {})",
+            self.spin_us
+        );
         if self.transport != TransportArg::Zenoh {
             for (flag, given) in [
                 ("--listen", !self.listen.is_empty()),
@@ -144,11 +148,6 @@ impl TransportArgs {
         };
         let deadline = Duration::from_secs_f64(self.deadline);
         let mut opts = pool_options(run_id, self.workers, deadline, !self.no_pin, stop)?;
-        anyhow::ensure!(
-            self.spin_us <= MAX_SPIN_US,
-            "--spin-us must be at most {MAX_SPIN_US} (got {})",
-            self.spin_us
-        );
         opts.spin = Duration::from_micros(self.spin_us);
         if let Some(n) = self.min_workers {
             anyhow::ensure!(
