@@ -10,6 +10,7 @@
 //! - [`run_files`]: what a run writes: JSON lines, `best.json`, the summary.
 //! - [`experiment`]: many paired trials, resumable, with tables, plots and a report.
 //! - [`recording`]: genomes flown into Recordings for replays.
+//! - [`sweep`]: one experiment under many settings, as one workload.
 //! - [`stop`]: the handle that asks the evaluators to stop.
 
 pub mod bench;
@@ -21,4 +22,5 @@ pub mod pool;
 pub mod recording;
 pub mod run_files;
 pub mod stop;
+pub mod sweep;
 pub mod trial;

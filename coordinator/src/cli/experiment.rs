@@ -9,7 +9,7 @@ use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::experiment::outputs::{ordered, write_outputs};
 use lander_coordinator::experiment::{
-    run, tasks, Experiment, ExperimentError, Progress, Store, TrialId,
+    experiment_tasks, run, trials, Experiment, ExperimentError, Progress, Store, TrialId,
 };
 use lander_coordinator::stop::Stop;
 use lander_coordinator::trial::Generation;
@@ -60,13 +60,13 @@ pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
     let store = Store::open(&out, &exp, args.resume)?;
     let mut records = store.finished()?;
     let done: HashSet<TrialId> = records.iter().map(TrialId::of).collect();
-    let todo: Vec<TrialId> = tasks(&exp)
+    let todo: Vec<TrialId> = trials(&exp)
         .into_iter()
         .filter(|t| !done.contains(t))
         .collect();
 
     let bars = MultiProgress::new();
-    let overall = bars.add(ProgressBar::new(tasks(&exp).len() as u64));
+    let overall = bars.add(ProgressBar::new(trials(&exp).len() as u64));
     overall.set_style(style(
         "trials [{bar:30}] {pos}/{len} ({elapsed}, eta {eta})",
     ));
@@ -80,15 +80,7 @@ pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
         ));
     }
     let mut backend = args.transport.evaluator(args.threads, &overall, stop)?;
-    let width = match args.transport.workers {
-        0 => rayon_width(args.threads),
-        n => n,
-    };
-    anyhow::ensure!(
-        args.in_flight != Some(0),
-        "--in-flight must be at least 1: it is how many GA trials run at once"
-    );
-    let in_flight = args.in_flight.unwrap_or(4 * width).max(1);
+    let in_flight = in_flight(args.in_flight, args.transport.workers, args.threads)?;
     let mut progress = Bars {
         bars: &bars,
         overall: &overall,
@@ -96,8 +88,8 @@ pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
         store: &store,
         records: &mut records,
     };
-    run(&exp, &todo, backend.as_mut(), in_flight, &mut progress)
-        .context("the experiment stopped")?;
+    let todo = experiment_tasks(&exp, &todo);
+    run(&todo, backend.as_mut(), in_flight, &mut progress).context("the experiment stopped")?;
     drop(backend);
     overall.finish_and_clear();
 
@@ -112,15 +104,26 @@ pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn rayon_width(threads: usize) -> usize {
-    if threads == 0 {
-        std::thread::available_parallelism().map_or(1, |n| n.get())
-    } else {
-        threads
-    }
+/// How many GA trials to step together: `asked`, or 4 per spawned worker
+/// or per evaluation thread.
+pub(super) fn in_flight(
+    asked: Option<usize>,
+    workers: usize,
+    threads: usize,
+) -> anyhow::Result<usize> {
+    anyhow::ensure!(
+        asked != Some(0),
+        "--in-flight must be at least 1: it is how many GA trials run at once"
+    );
+    let width = match (workers, threads) {
+        (0, 0) => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        (0, threads) => threads,
+        (workers, _) => workers,
+    };
+    Ok(asked.unwrap_or(4 * width))
 }
 
-fn style(template: &str) -> ProgressStyle {
+pub(super) fn style(template: &str) -> ProgressStyle {
     ProgressStyle::with_template(template)
         .unwrap_or_else(|_| ProgressStyle::default_bar())
         .progress_chars("=> ")
@@ -136,7 +139,7 @@ struct Bars<'a> {
     records: &'a mut Vec<TrialRecord>,
 }
 
-impl Progress for Bars<'_> {
+impl Progress<TrialId> for Bars<'_> {
     fn started(&mut self, task: TrialId, cfg: &RunConfig) {
         let bar = match task.method {
             Method::Qlearning => {
@@ -161,7 +164,7 @@ impl Progress for Bars<'_> {
         }
     }
 
-    fn finished(&mut self, record: TrialRecord) -> Result<(), ExperimentError> {
+    fn finished(&mut self, _: TrialId, record: TrialRecord) -> Result<(), ExperimentError> {
         self.store
             .save(&record)
             .map_err(|e| ExperimentError::Store(e.to_string()))?;

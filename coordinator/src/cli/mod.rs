@@ -8,6 +8,7 @@ mod replay;
 mod router;
 mod run;
 mod stress;
+mod sweep;
 mod transport;
 
 use clap::{Parser, Subcommand};
@@ -37,6 +38,9 @@ enum Command {
     Guide(flight::GuideArgs),
     /// Run an experiment of many paired trials and write tables, plots and a report.
     Experiment(experiment::ExperimentArgs),
+    /// Run one experiment under many settings as one workload, and compare
+    /// the settings in tables, plots and a report.
+    Sweep(sweep::SweepArgs),
     /// Draw a flight as an SVG or an animated HTML page.
     Replay(replay::ReplayArgs),
     /// Compare evaluation throughput in-process, over iceoryx2 and over zenoh, side by side.
@@ -54,6 +58,7 @@ pub fn dispatch(cli: Cli, stop: &Stop) -> anyhow::Result<()> {
         Command::Guide(args) => flight::guide(args),
         Command::Bench(args) => bench::bench(args, stop),
         Command::Experiment(args) => experiment::experiment(args, stop),
+        Command::Sweep(args) => sweep::sweep(args, stop),
         Command::Replay(args) => replay::replay(args),
         Command::Router(args) => router::router(args),
     }

@@ -34,6 +34,21 @@ pub struct Experiment {
     pub qlearning: LearnParams,
 }
 
+/// What [`is_folder_name`] allows, for error messages.
+pub const FOLDER_NAME_RULE: &str =
+    "must be 1 to 64 letters, digits, '-', '_' or '.', not starting with '.'";
+
+/// Whether `name` can name a folder on any system without quoting: 1 to 64
+/// letters, digits, `-`, `_` or `.`, not starting with `.`.
+pub fn is_folder_name(name: &str) -> bool {
+    !name.is_empty()
+        && name.len() <= 64
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+        && !name.starts_with('.')
+}
+
 impl Default for Experiment {
     fn default() -> Self {
         let run = RunConfig::default();
@@ -73,18 +88,7 @@ impl Experiment {
 
     /// Checks every field, naming the first that is out of range.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        let name_ok = !self.name.is_empty()
-            && self.name.len() <= 64
-            && self
-                .name
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
-            && !self.name.starts_with('.');
-        check(
-            "name",
-            name_ok,
-            "must be 1 to 64 letters, digits, '-', '_' or '.', not starting with '.'",
-        )?;
+        check("name", is_folder_name(&self.name), FOLDER_NAME_RULE)?;
         check(
             "trials",
             (1..=MAX_TRIALS).contains(&self.trials),

@@ -13,5 +13,5 @@ pub mod runner;
 pub mod store;
 
 pub use file::Experiment;
-pub use runner::{run, tasks, ExperimentError, Progress, TrialId};
+pub use runner::{experiment_tasks, run, trials, ExperimentError, Progress, Task, TrialId};
 pub use store::{Store, StoreError};

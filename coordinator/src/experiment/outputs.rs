@@ -28,7 +28,7 @@ fn fail(path: &Path) -> impl Fn(String) -> OutputError + '_ {
 }
 
 /// Writes `bytes` to `dir/name` through a temporary file and a rename.
-fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<PathBuf, OutputError> {
+pub fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<PathBuf, OutputError> {
     let path = dir.join(name);
     let tmp = dir.join(format!(".{name}.tmp"));
     std::fs::write(&tmp, bytes).map_err(|e| fail(&tmp)(e.to_string()))?;

@@ -1,6 +1,8 @@
-//! Runs an experiment's trials on one [`Backend`]: the GA trials stepped
-//! together, a generation of each per round, so that every core stays busy
-//! even with small populations; then the Q(λ) trials, one job each.
+//! Runs trials on one [`Backend`]: the GA trials stepped together, a
+//! generation of each per round, so that every core stays busy even with
+//! small populations; then the Q(λ) trials, one job each. A task is a trial's
+//! configuration under a key of the caller's (an experiment's [`TrialId`], or
+//! a sweep's setting and trial), so one workload can hold many experiments.
 
 use super::file::Experiment;
 use crate::config::RunConfig;
@@ -32,7 +34,7 @@ impl TrialId {
 
 /// Every trial of the experiment: trial by trial, each method in the
 /// file's order, so that an interrupted run has finished whole pairs.
-pub fn tasks(exp: &Experiment) -> Vec<TrialId> {
+pub fn trials(exp: &Experiment) -> Vec<TrialId> {
     (1..=exp.trials)
         .flat_map(|trial| {
             exp.methods
@@ -42,11 +44,28 @@ pub fn tasks(exp: &Experiment) -> Vec<TrialId> {
         .collect()
 }
 
+/// One trial to run: its configuration, under the caller's key.
+#[derive(Clone, Debug)]
+pub struct Task<K> {
+    pub key: K,
+    pub cfg: RunConfig,
+}
+
+/// The tasks of one experiment's trials.
+pub fn experiment_tasks(exp: &Experiment, ids: &[TrialId]) -> Vec<Task<TrialId>> {
+    ids.iter()
+        .map(|&key| Task {
+            key,
+            cfg: exp.config(key.method, key.trial),
+        })
+        .collect()
+}
+
 /// What the runner reports as it goes. A `finished` error stops the run.
-pub trait Progress {
-    fn started(&mut self, task: TrialId, cfg: &RunConfig);
-    fn generation(&mut self, task: TrialId, generation: &Generation);
-    fn finished(&mut self, record: TrialRecord) -> Result<(), ExperimentError>;
+pub trait Progress<K> {
+    fn started(&mut self, key: K, cfg: &RunConfig);
+    fn generation(&mut self, key: K, generation: &Generation);
+    fn finished(&mut self, key: K, record: TrialRecord) -> Result<(), ExperimentError>;
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -60,45 +79,43 @@ pub enum ExperimentError {
 }
 
 /// Runs `tasks` with at most `in_flight` GA trials at once. Every trial's
-/// results depend only on the experiment and its number, never on
-/// `in_flight`, the backend or the order of finishing.
-pub fn run(
-    exp: &Experiment,
-    tasks: &[TrialId],
+/// results depend only on its configuration, never on `in_flight`, the
+/// backend, the other tasks or the order of finishing.
+pub fn run<K: Copy + Send>(
+    tasks: &[Task<K>],
     backend: &mut dyn Backend,
     in_flight: usize,
-    progress: &mut dyn Progress,
+    progress: &mut dyn Progress<K>,
 ) -> Result<(), ExperimentError> {
-    let (learning, evolving): (Vec<TrialId>, Vec<TrialId>) =
-        tasks.iter().partition(|t| t.method == Method::Qlearning);
-    evolve(exp, &evolving, backend, in_flight.max(1), progress)?;
-    learn(exp, &learning, backend, progress)
+    let (learning, evolving): (Vec<&Task<K>>, Vec<&Task<K>>) = tasks
+        .iter()
+        .partition(|t| t.cfg.method == Method::Qlearning);
+    evolve(&evolving, backend, in_flight.max(1), progress)?;
+    learn(&learning, backend, progress)
 }
 
-struct Running {
-    task: TrialId,
+struct Running<K> {
+    key: K,
     run: TrialRun,
     log: Vec<Generation>,
     started: Instant,
 }
 
-fn evolve(
-    exp: &Experiment,
-    tasks: &[TrialId],
+fn evolve<K: Copy + Send>(
+    tasks: &[&Task<K>],
     backend: &mut dyn Backend,
     in_flight: usize,
-    progress: &mut dyn Progress,
+    progress: &mut dyn Progress<K>,
 ) -> Result<(), ExperimentError> {
     let mut queue = tasks.iter();
-    let mut running: Vec<Running> = Vec::new();
+    let mut running: Vec<Running<K>> = Vec::new();
     loop {
         while running.len() < in_flight {
-            let Some(&task) = queue.next() else { break };
-            let cfg = exp.config(task.method, task.trial);
-            progress.started(task, &cfg);
+            let Some(task) = queue.next() else { break };
+            progress.started(task.key, &task.cfg);
             running.push(Running {
-                task,
-                run: TrialRun::new(&cfg)?,
+                key: task.key,
+                run: TrialRun::new(&task.cfg)?,
                 log: Vec::new(),
                 started: Instant::now(),
             });
@@ -113,7 +130,7 @@ fn evolve(
             None => breed(&mut running, &evaluations),
         };
         for (r, generation) in running.iter_mut().zip(generations) {
-            progress.generation(r.task, &generation);
+            progress.generation(r.key, &generation);
             r.log.push(generation);
         }
         let mut i = 0;
@@ -121,8 +138,9 @@ fn evolve(
             if let Some(result) = running[i].run.result() {
                 let r = &running[i];
                 let record = evolution_record(r.run.config(), result, &r.log, r.started);
+                let key = r.key;
                 running.remove(i);
-                progress.finished(record)?;
+                progress.finished(key, record)?;
             } else {
                 i += 1;
             }
@@ -134,7 +152,7 @@ fn evolve(
 /// draws from its own keyed stream, so doing them in parallel changes
 /// nothing but the time: serial, breeding took a sixth of an in-process
 /// experiment's GA time on 2 cores.
-fn breed(running: &mut [Running], evaluations: &[Vec<Evaluation>]) -> Vec<Generation> {
+fn breed<K: Send>(running: &mut [Running<K>], evaluations: &[Vec<Evaluation>]) -> Vec<Generation> {
     running
         .par_iter_mut()
         .zip(evaluations)
@@ -142,30 +160,25 @@ fn breed(running: &mut [Running], evaluations: &[Vec<Evaluation>]) -> Vec<Genera
         .collect()
 }
 
-fn learn(
-    exp: &Experiment,
-    tasks: &[TrialId],
+fn learn<K: Copy>(
+    tasks: &[&Task<K>],
     backend: &mut dyn Backend,
-    progress: &mut dyn Progress,
+    progress: &mut dyn Progress<K>,
 ) -> Result<(), ExperimentError> {
     if tasks.is_empty() {
         return Ok(());
     }
-    let configs: Vec<RunConfig> = tasks
+    let jobs: Vec<TrainJob> = tasks
         .iter()
-        .map(|t| exp.config(t.method, t.trial))
-        .collect();
-    let jobs: Vec<TrainJob> = configs
-        .iter()
-        .map(|cfg| TrainJob {
+        .map(|Task { cfg, .. }| TrainJob {
             env: cfg.env(0),
             guide: cfg.guided,
             learn: cfg.qlearning,
             key: StreamKey::new(cfg.seed, cfg.trial, 0, 0),
         })
         .collect();
-    for (task, cfg) in tasks.iter().zip(&configs) {
-        progress.started(*task, cfg);
+    for task in tasks {
+        progress.started(task.key, &task.cfg);
     }
     let started = Instant::now();
     // A store failure is reported once training stops; training a few
@@ -175,8 +188,8 @@ fn learn(
         if failure.is_some() {
             return;
         }
-        let record = learning_record(&configs[i], &jobs[i], result, started);
-        if let Err(e) = progress.finished(record) {
+        let record = learning_record(&tasks[i].cfg, &jobs[i], result, started);
+        if let Err(e) = progress.finished(tasks[i].key, record) {
             failure = Some(e);
         }
     })?;

@@ -1,0 +1,101 @@
+//! The sweep's folder while it runs: the sweep it belongs to (`sweep.json`)
+//! and one experiment folder per setting under `settings/`, each an
+//! experiment [`Store`], so that `--resume` skips every finished trial and
+//! every tool that reads an experiment folder reads a setting's.
+
+use super::file::Sweep;
+use crate::experiment::store::first_difference;
+use crate::experiment::{Store, StoreError};
+use crate::run_files::write_json;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, thiserror::Error)]
+pub enum SweepStoreError {
+    #[error("{dir} already holds a sweep's results; pass --resume to finish it, or choose another --out")]
+    Occupied { dir: PathBuf },
+    #[error("{dir} holds results of a different sweep ({field} differs); choose another --out")]
+    Different { dir: PathBuf, field: String },
+    #[error("{dir} holds no sweep to resume (no sweep.json)")]
+    NothingToResume { dir: PathBuf },
+    #[error("{path}: {message}")]
+    Io { path: PathBuf, message: String },
+    #[error(transparent)]
+    Setting(#[from] StoreError),
+}
+
+/// The sweep folder and one experiment store per setting, in the sweep's
+/// order.
+pub struct SweepStore {
+    dir: PathBuf,
+    pub settings: Vec<Store>,
+}
+
+impl SweepStore {
+    /// Opens `dir` for `sweep`: a new folder, or with `resume` one that an
+    /// interrupted run of the same sweep left.
+    pub fn open(dir: &Path, sweep: &Sweep, resume: bool) -> Result<SweepStore, SweepStoreError> {
+        let definition = dir.join("sweep.json");
+        let fresh = serde_json::to_value(sweep.definition()).map_err(|e| SweepStoreError::Io {
+            path: definition.clone(),
+            message: e.to_string(),
+        })?;
+        match (definition.exists(), resume) {
+            (true, false) => return Err(SweepStoreError::Occupied { dir: dir.into() }),
+            (false, true) => return Err(SweepStoreError::NothingToResume { dir: dir.into() }),
+            (true, true) => check_same(dir, &definition, &fresh)?,
+            (false, false) => {}
+        }
+        std::fs::create_dir_all(dir).map_err(|e| SweepStoreError::Io {
+            path: dir.into(),
+            message: e.to_string(),
+        })?;
+        write_json(&definition, &fresh).map_err(|e| SweepStoreError::Io {
+            path: definition.clone(),
+            message: e.source.to_string(),
+        })?;
+        let settings = sweep
+            .settings
+            .iter()
+            .map(|s| {
+                let at = setting_dir(dir, &s.folder);
+                // A setting whose first trial had not finished may have no
+                // folder yet.
+                let begun = at.join("experiment.json").exists();
+                Store::open(&at, &s.experiment, resume && begun)
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(SweepStore {
+            dir: dir.to_path_buf(),
+            settings,
+        })
+    }
+
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+}
+
+/// Where a setting's experiment folder is.
+pub fn setting_dir(dir: &Path, folder: &str) -> PathBuf {
+    dir.join("settings").join(folder)
+}
+
+fn check_same(
+    dir: &Path,
+    definition: &Path,
+    fresh: &serde_json::Value,
+) -> Result<(), SweepStoreError> {
+    let io = |message: String| SweepStoreError::Io {
+        path: definition.to_path_buf(),
+        message,
+    };
+    let text = std::fs::read_to_string(definition).map_err(|e| io(e.to_string()))?;
+    let stored: serde_json::Value = serde_json::from_str(&text).map_err(|e| io(e.to_string()))?;
+    match first_difference(&stored, fresh, "") {
+        None => Ok(()),
+        Some(field) => Err(SweepStoreError::Different {
+            dir: dir.to_path_buf(),
+            field,
+        }),
+    }
+}
