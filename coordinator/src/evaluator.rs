@@ -87,6 +87,13 @@ pub trait Evaluator {
     fn threads(&self) -> Option<&rayon::ThreadPool> {
         None
     }
+
+    /// The time worker processes have spent on jobs so far, summed over
+    /// the workers (a chunk answered twice counts twice); `None` without
+    /// worker processes.
+    fn worker_busy(&self) -> Option<std::time::Duration> {
+        None
+    }
 }
 
 /// Runs Q(λ) trials, one per job; a learner is sequential within a trial,

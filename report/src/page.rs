@@ -15,7 +15,8 @@ pub struct Figure {
     pub svg: String,
 }
 
-const PAGE_CSS: &str = "
+/// The style sheet of every page the crate writes.
+pub(crate) const PAGE_CSS: &str = "
 body { font-family: system-ui, sans-serif; margin: 2rem auto; max-width: 60rem; color: #222; line-height: 1.45; padding: 0 1rem; }
 table { border-collapse: collapse; margin: 1rem 0; }
 th, td { border: 1px solid #ccc; padding: .3rem .6rem; text-align: left; vertical-align: top; }
@@ -45,12 +46,7 @@ pub fn report_html(summary: &Summary, figures: &[Figure], recording: Option<&Rec
     html.push_str(&comparison(summary));
     html.push_str(&claims_table(summary));
     for f in figures {
-        let data = base64::engine::general_purpose::STANDARD.encode(f.svg.as_bytes());
-        let _ = writeln!(
-            html,
-            "<figure><img alt=\"{0}\" src=\"data:image/svg+xml;base64,{data}\"><figcaption>{0}</figcaption></figure>",
-            escape(&f.caption)
-        );
+        html.push_str(&figure_html(f));
     }
     if let Some(recording) = recording {
         html.push_str("<h2>The best landing</h2>\n");
@@ -59,6 +55,16 @@ pub fn report_html(summary: &Summary, figures: &[Figure], recording: Option<&Rec
     }
     html.push_str("</body>\n</html>\n");
     html
+}
+
+/// A figure inline: its SVG as a base64 data URI, so the page needs no
+/// other file, with the caption as alt text and below it.
+pub(crate) fn figure_html(figure: &Figure) -> String {
+    let data = base64::engine::general_purpose::STANDARD.encode(figure.svg.as_bytes());
+    format!(
+        "<figure><img alt=\"{0}\" src=\"data:image/svg+xml;base64,{data}\"><figcaption>{0}</figcaption></figure>\n",
+        escape(&figure.caption)
+    )
 }
 
 fn methods_table(s: &Summary) -> String {

@@ -27,7 +27,9 @@ pub struct MethodSummary {
 /// The general GA against the guided GA, trial by trial.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Paired {
+    /// Trials both GAs ran: see [`pairs()`].
     pub pairs: usize,
+    /// Pairs in which the guided GA needed fewer generations ([`guided_fewer`]).
     pub guided_fewer: usize,
     pub ga_fewer: usize,
     pub ties: usize,
@@ -224,14 +226,46 @@ pub fn pvalue(p: f64) -> String {
     }
 }
 
-fn method_summary(records: &[TrialRecord], method: Method) -> MethodSummary {
-    let trials: Vec<&TrialRecord> = of(records, method).collect();
-    let landed: Vec<f64> = trials
-        .iter()
+/// The generations of `method`'s trials that landed: the sample behind
+/// [`MethodSummary::generations`] (and a sweep's interval of its median).
+pub fn landed_generations(records: &[TrialRecord], method: Method) -> Vec<f64> {
+    of(records, method)
         .filter(|r| r.landed)
         .filter_map(|r| r.generations)
         .map(|g| g as f64)
-        .collect();
+        .collect()
+}
+
+/// The general GA's records paired with the guided GA's of the same trial
+/// number, in the order of the general GA's records; a trial without a
+/// partner is left out. These are the pairs of [`Paired`].
+pub fn pairs(records: &[TrialRecord]) -> Vec<(&TrialRecord, &TrialRecord)> {
+    of(records, Method::Ga)
+        .filter_map(|g| {
+            of(records, Method::Guided)
+                .find(|r| r.trial == g.trial)
+                .map(|r| (g, r))
+        })
+        .collect()
+}
+
+/// The generations a trial flew, as a pair compares them: a trial that
+/// never landed counts with every generation it flew (a lower bound of what
+/// it would have needed), a record without a count as 0.
+pub fn flown(record: &TrialRecord) -> f64 {
+    record.generations.unwrap_or(0) as f64
+}
+
+/// Whether the guided GA needed fewer generations than the general GA in
+/// a pair (by [`flown`]): what [`Paired::guided_fewer`] counts. A tie is
+/// not a win.
+pub fn guided_fewer(ga: &TrialRecord, guided: &TrialRecord) -> bool {
+    flown(guided) < flown(ga)
+}
+
+fn method_summary(records: &[TrialRecord], method: Method) -> MethodSummary {
+    let trials: Vec<&TrialRecord> = of(records, method).collect();
+    let landed = landed_generations(records, method);
     let restarts: Vec<f64> = trials
         .iter()
         .filter_map(|r| r.restarts)
@@ -250,17 +284,10 @@ fn method_summary(records: &[TrialRecord], method: Method) -> MethodSummary {
 }
 
 fn paired(records: &[TrialRecord]) -> Option<Paired> {
-    let pairs: Vec<(&TrialRecord, &TrialRecord)> = of(records, Method::Ga)
-        .filter_map(|g| {
-            of(records, Method::Guided)
-                .find(|r| r.trial == g.trial)
-                .map(|r| (g, r))
-        })
-        .collect();
+    let pairs = pairs(records);
     if pairs.is_empty() {
         return None;
     }
-    let flown = |r: &TrialRecord| r.generations.unwrap_or(0) as f64;
     let ga: Vec<f64> = pairs.iter().map(|(g, _)| flown(g)).collect();
     let guided: Vec<f64> = pairs.iter().map(|(_, r)| flown(r)).collect();
     let count =
@@ -280,7 +307,7 @@ fn paired(records: &[TrialRecord]) -> Option<Paired> {
     }
     Some(Paired {
         pairs: pairs.len(),
-        guided_fewer: count(|a, b| b < a),
+        guided_fewer: pairs.iter().filter(|(g, r)| guided_fewer(g, r)).count(),
         ga_fewer: count(|a, b| a < b),
         ties: count(|a, b| a == b),
         wilcoxon: wilcoxon_signed_rank(&ga, &guided),

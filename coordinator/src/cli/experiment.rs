@@ -7,6 +7,7 @@ use anyhow::Context;
 use clap::Args;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use lander_coordinator::config::RunConfig;
+use lander_coordinator::evaluator::Backend;
 use lander_coordinator::experiment::outputs::{ordered, write_outputs};
 use lander_coordinator::experiment::{
     experiment_tasks, run, trials, Experiment, ExperimentError, Progress, Store, TrialId,
@@ -17,6 +18,7 @@ use lander_model::Method;
 use lander_report::model::TrialRecord;
 use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
+use std::time::Instant;
 
 #[derive(Args, Debug)]
 pub struct ExperimentArgs {
@@ -79,6 +81,7 @@ pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
             todo.len()
         ));
     }
+    let since = Instant::now();
     let mut backend = args.transport.evaluator(args.threads, &overall, stop)?;
     let in_flight = in_flight(args.in_flight, args.transport.workers, args.threads)?;
     let mut progress = Bars {
@@ -90,6 +93,7 @@ pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
     };
     let todo = experiment_tasks(&exp, &todo);
     run(&todo, backend.as_mut(), in_flight, &mut progress).context("the experiment stopped")?;
+    say_busy(backend.as_ref(), args.transport.workers, since);
     drop(backend);
     overall.finish_and_clear();
 
@@ -121,6 +125,19 @@ pub(super) fn in_flight(
         (workers, _) => workers,
     };
     Ok(asked.unwrap_or(4 * width))
+}
+
+/// Says how busy the spawned workers were since `since`: their time on
+/// jobs over their number times the wall time.
+pub(super) fn say_busy(backend: &dyn Backend, workers: usize, since: Instant) {
+    let (Some(busy), true) = (backend.worker_busy(), workers > 0) else {
+        return;
+    };
+    let wall = since.elapsed().as_secs_f64();
+    eprintln!(
+        "{workers} workers were busy {:.1}% of {wall:.1} s",
+        100.0 * busy.as_secs_f64() / (workers as f64 * wall)
+    );
 }
 
 pub(super) fn style(template: &str) -> ProgressStyle {

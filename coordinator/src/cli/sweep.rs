@@ -3,7 +3,7 @@
 //! one per setting under way and one per running trial; written trial by
 //! trial so that `--resume` can finish an interrupted sweep.
 
-use super::experiment::{in_flight, style};
+use super::experiment::{in_flight, say_busy, style};
 use super::transport::TransportArgs;
 use anyhow::Context;
 use clap::Args;
@@ -18,6 +18,7 @@ use lander_model::Method;
 use lander_report::model::TrialRecord;
 use std::collections::HashMap;
 use std::path::PathBuf;
+use std::time::Instant;
 
 #[derive(Args, Debug)]
 pub struct SweepArgs {
@@ -92,6 +93,7 @@ pub fn sweep(args: SweepArgs, stop: &Stop) -> anyhow::Result<()> {
             plan.tasks.len()
         ));
     }
+    let since = Instant::now();
     let mut backend = args.transport.evaluator(args.threads, &overall, stop)?;
     let in_flight = in_flight(args.in_flight, args.transport.workers, args.threads)?;
     let mut progress = Bars {
@@ -112,6 +114,7 @@ pub fn sweep(args: SweepArgs, stop: &Stop) -> anyhow::Result<()> {
                 out.display()
             )
         })?;
+    say_busy(backend.as_ref(), args.transport.workers, since);
     drop(backend);
     overall.finish_and_clear();
 

@@ -45,6 +45,10 @@ impl<T: Transport> Trainer for Pool<T> {
 }
 
 impl<T: Transport> Evaluator for Pool<T> {
+    fn worker_busy(&self) -> Option<std::time::Duration> {
+        Some(self.busy)
+    }
+
     fn evaluate_many(
         &mut self,
         mut batches: Vec<Batch<'_>>,

@@ -110,5 +110,7 @@ pub struct Pool<T: Transport> {
     told_waiting: bool,
     /// Kept only when asked for, so long runs do not accumulate them.
     timings: Option<Vec<ChunkTiming>>,
+    /// The workers' own time on every chunk answered, summed.
+    busy: std::time::Duration,
     say: Say,
 }

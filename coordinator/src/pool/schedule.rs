@@ -132,6 +132,7 @@ impl<T: Transport> Pool<T> {
                 ));
             }
             for a in answers {
+                self.busy += a.timing.compute();
                 if let Some(t) = &mut self.timings {
                     t.push(a.timing);
                 }

@@ -43,6 +43,7 @@ impl<T: Transport> Pool<T> {
             taken_back: 0,
             told_waiting: false,
             timings: None,
+            busy: std::time::Duration::ZERO,
             say,
             opts,
         };

@@ -134,7 +134,7 @@ pub(super) fn plain(v: f64) -> String {
 }
 
 /// 9999999 as "9,999,999" (rounded to an integer).
-pub(super) fn thousands(v: f64) -> String {
+pub(crate) fn thousands(v: f64) -> String {
     let digits = format!("{:.0}", v.abs());
     let mut out = String::new();
     for (i, c) in digits.chars().enumerate() {

@@ -19,6 +19,9 @@ pub(super) enum Swatch {
     Dashed(RGBColor),
     /// A dotted line.
     Dotted(RGBColor),
+    /// A filled point marker on a vertical whisker: an estimate and its
+    /// interval.
+    Interval(RGBColor),
     /// A hollow point marker.
     Hollow(RGBColor),
     /// No sample: the label is a note.
@@ -74,6 +77,11 @@ pub(super) fn legend<DB: DrawingBackend>(area: &Area<DB>, entries: &[Entry]) -> 
                 for x in (X0..=X1).step_by(5) {
                     area.draw(&Circle::new((x, y), 1, c.filled()))?;
                 }
+            }
+            Swatch::Interval(c) => {
+                let whisker = vec![(mid, y - 9), (mid, y + 9)];
+                area.draw(&PathElement::new(whisker, c.stroke_width(2)))?;
+                area.draw(&Circle::new((mid, y), 4, c.filled()))?;
             }
             Swatch::Hollow(c) => {
                 area.draw(&Circle::new((mid, y), 5, WHITE.filled()))?;

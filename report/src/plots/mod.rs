@@ -1,7 +1,8 @@
 //! The report's figures, drawn from trial records: generations to a safe
 //! landing per trial (the paper's Figure 3), best and mean fitness per
 //! generation in one trial (Figure 4), and the Q(λ) baseline's learning
-//! curve.
+//! curve; and a sweep's figures, drawn from its table
+//! ([`SweepSummary`](crate::sweep::SweepSummary)) one grid at a time.
 //!
 //! Every figure comes back as a [`Plot`]: the same drawing as an SVG
 //! document and as PNG bytes, 800×500 pixels. Nothing here touches the
@@ -28,25 +29,36 @@
 //! - `fig3`: [`generations_per_trial`], Figure 3.
 //! - `fig4`: [`fitness_per_generation`], Figure 4.
 //! - `learning`: [`learning_curve`], the Q(λ) learning curve.
+//! - `sweep`: for a grid of one key, [`share_against`] (the share of pairs
+//!   the guided GA won) and [`generations_against`] (each GA's median
+//!   generations), with bootstrap intervals as whiskers; the categorical
+//!   axis every sweep figure uses.
+//! - `heatmap`: for a grid of two keys, [`heatmap`] of the share won.
 //! - `render`: one drawing, two backends (SVG and PNG), the embedded font,
 //!   the frame and the data lines every figure shares.
 //! - `legend`: the legend panel.
 //! - `axis`: the [`symlog`] scale, its ticks and the tick labels.
-//! - `style`: colours, shades and text sizes.
+//! - `style`: colours, shades, the heatmap's sequential scale and text
+//!   sizes.
 
 mod axis;
 mod fig3;
 mod fig4;
+mod heatmap;
 mod learning;
 mod legend;
 mod render;
 mod style;
+mod sweep;
 #[cfg(test)]
 mod tests;
 
+pub(crate) use axis::thousands;
 pub use axis::{symlog, symlog_inverse};
 pub use fig3::generations_per_trial;
 pub use fig4::fitness_per_generation;
+pub use heatmap::heatmap;
 pub use learning::{learning_curve, SMOOTHING_WINDOW};
 pub use render::{Plot, PlotError, HEIGHT, WIDTH};
 pub use style::{colour, GA_COLOUR, GUIDED_COLOUR, QLEARNING_COLOUR};
+pub use sweep::{generations_against, share_against};

@@ -27,6 +27,43 @@ pub(super) fn tint(c: RGBColor) -> RGBColor {
     RGBColor(mix(c.0), mix(c.1), mix(c.2))
 }
 
+/// The heatmap's colour for a share from 0 to 1: viridis, sampled at five
+/// stops and interpolated linearly, from dark purple (0) to yellow (1). It
+/// is perceptually uniform, so equal steps in share look like equal steps
+/// in colour, and it reads the same to colour-blind readers and in grey.
+/// Values outside [0, 1] are clamped; NaN is the middle grey of no data.
+pub(super) fn sequential(share: f64) -> RGBColor {
+    const STOPS: [(u8, u8, u8); 5] = [
+        (68, 1, 84),
+        (59, 82, 139),
+        (33, 145, 140),
+        (94, 201, 98),
+        (253, 231, 37),
+    ];
+    if share.is_nan() {
+        return REFERENCE;
+    }
+    let position = share.clamp(0.0, 1.0) * (STOPS.len() - 1) as f64;
+    let below = (position.floor() as usize).min(STOPS.len() - 2);
+    let fraction = position - below as f64;
+    let (a, b) = (STOPS[below], STOPS[below + 1]);
+    let mix =
+        |x: u8, y: u8| (f64::from(x) + fraction * (f64::from(y) - f64::from(x))).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// Black or white, whichever reads better on `background` (by its luma).
+pub(super) fn ink_on(background: RGBColor) -> RGBColor {
+    let luma = 0.299 * f64::from(background.0)
+        + 0.587 * f64::from(background.1)
+        + 0.114 * f64::from(background.2);
+    if luma > 140.0 {
+        RGBColor(0, 0, 0)
+    } else {
+        RGBColor(255, 255, 255)
+    }
+}
+
 /// The font family every text is set in: the embedded DejaVu Sans in the
 /// PNG (see [`super::render`]), the viewer's sans-serif in the SVG.
 pub(super) const FAMILY: &str = "sans-serif";
@@ -53,5 +90,25 @@ mod tests {
         assert_eq!(colour(Method::Ga), GA_COLOUR);
         assert_eq!(colour(Method::Guided), GUIDED_COLOUR);
         assert_eq!(colour(Method::Qlearning), QLEARNING_COLOUR);
+    }
+
+    #[test]
+    fn the_sequential_scale_runs_from_purple_to_yellow() {
+        assert_eq!(sequential(0.0), RGBColor(68, 1, 84));
+        assert_eq!(sequential(0.5), RGBColor(33, 145, 140));
+        assert_eq!(sequential(1.0), RGBColor(253, 231, 37));
+        // Halfway between the first two stops.
+        assert_eq!(sequential(0.125), RGBColor(64, 42, 112));
+        assert_eq!(sequential(-1.0), sequential(0.0));
+        assert_eq!(sequential(2.0), sequential(1.0));
+        assert_eq!(sequential(f64::NAN), REFERENCE);
+        // Brighter as the share grows, so the order reads without a legend.
+        let luma = |c: RGBColor| 299 * u32::from(c.0) + 587 * u32::from(c.1) + 114 * u32::from(c.2);
+        let steps: Vec<u32> = (0..=20)
+            .map(|i| luma(sequential(f64::from(i) / 20.0)))
+            .collect();
+        assert!(steps.windows(2).all(|w| w[0] < w[1]), "{steps:?}");
+        assert_eq!(ink_on(sequential(0.0)), RGBColor(255, 255, 255));
+        assert_eq!(ink_on(sequential(1.0)), RGBColor(0, 0, 0));
     }
 }

@@ -217,3 +217,212 @@ fn odd_values_do_not_panic() {
     flat.learning.as_mut().unwrap().returns = vec![5.0];
     check(&learning_curve(&[flat]).unwrap(), &["1 trial"]);
 }
+
+/// The x of the SVG text `label` centred under a point: an x-axis tick
+/// label. plotters writes `<text x=".." y=".." .. text-anchor="middle" ..>`
+/// and then the text on a line of its own.
+fn centred_label_x(svg: &str, label: &str) -> i32 {
+    match text_at(svg, label, "middle") {
+        Some((x, _)) => x,
+        None => panic!("no x-axis label {label:?}"),
+    }
+}
+
+/// The y of the SVG text `label` set right-aligned: a y-axis tick label.
+fn left_label_y(svg: &str, label: &str) -> i32 {
+    match text_at(svg, label, "end") {
+        Some((_, y)) => y,
+        None => panic!("no y-axis label {label:?}"),
+    }
+}
+
+/// Where the unrotated text `label` with anchor `anchor` sits, if it does.
+fn text_at(svg: &str, label: &str, anchor: &str) -> Option<(i32, i32)> {
+    let attribute = |tag: &str, name: &str| -> Option<String> {
+        let start = tag.find(&format!(" {name}=\""))? + name.len() + 3;
+        let end = start + tag[start..].find('"')?;
+        Some(tag[start..end].to_string())
+    };
+    svg.split("<text").skip(1).find_map(|chunk| {
+        let (tag, rest) = chunk.split_once('>')?;
+        let text = rest.split("</text>").next()?.trim();
+        if text != label || attribute(tag, "text-anchor")? != anchor || tag.contains("rotate") {
+            return None;
+        }
+        Some((
+            attribute(tag, "x")?.parse().ok()?,
+            attribute(tag, "y")?.parse().ok()?,
+        ))
+    })
+}
+
+/// The sweep of `crate::sweep`'s tests with a one-key grid `epsilon` of
+/// three settings (one without pairs) and a two-key grid `pair` of three.
+fn sweep_sample() -> crate::sweep::SweepSummary {
+    use crate::summary::Summary;
+    use crate::sweep::{sweep_summary, SettingInput};
+    use serde_json::json;
+    let [a, b] = crate::sweep::tests::records();
+    let ga_only: Vec<TrialRecord> = a
+        .iter()
+        .filter(|r| r.method == Method::Ga)
+        .cloned()
+        .collect();
+    let runs = [a.clone(), b.clone(), ga_only, b.clone(), a.clone(), a];
+    let summaries: Vec<Summary> = runs.iter().map(|r| Summary::new("s", 1, 3, r)).collect();
+    let values = [
+        ("epsilon", vec![("guided.epsilon", json!(0.1))]),
+        ("epsilon", vec![("guided.epsilon", json!(0.0))]),
+        ("epsilon", vec![("guided.epsilon", json!(0.5))]),
+        (
+            "pair",
+            vec![
+                ("ga.crossover", json!("uniform")),
+                ("guided.epsilon", json!(0.0)),
+            ],
+        ),
+        (
+            "pair",
+            vec![
+                ("ga.crossover", json!("buckland")),
+                ("guided.epsilon", json!(0.0)),
+            ],
+        ),
+        (
+            "pair",
+            vec![
+                ("ga.crossover", json!("uniform")),
+                ("guided.epsilon", json!(0.1)),
+            ],
+        ),
+    ];
+    let names: Vec<String> = (0..runs.len()).map(|i| format!("setting {i}")).collect();
+    let settings: Vec<SettingInput> = values
+        .iter()
+        .zip(&runs)
+        .zip(&summaries)
+        .zip(&names)
+        .map(|(((values, records), summary), name)| SettingInput {
+            name,
+            folder: name,
+            grid: Some(values.0),
+            values: values
+                .1
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.clone()))
+                .collect(),
+            summary,
+            records,
+        })
+        .collect();
+    sweep_summary("s", 1, 3, &settings)
+}
+
+fn grid(name: &'static str, keys: &[&str]) -> crate::sweep::GridInput<'static> {
+    crate::sweep::GridInput {
+        name,
+        keys: keys.iter().map(|k| k.to_string()).collect(),
+    }
+}
+
+#[test]
+fn plots_the_share_won_against_one_key() {
+    let sweep = sweep_sample();
+    let plot = share_against(&grid("epsilon", &["guided.epsilon"]), &sweep).unwrap();
+    check(
+        &plot,
+        &[
+            "Share of pairs won by the guided GA, grid epsilon",
+            "guided.epsilon",
+            "guided GA",
+            "share won, 95% CI",
+            "paper: 24 of 25",
+            "(share 0.96)",
+        ],
+    );
+    // The values as written, in ascending order though the sweep lists 0.1
+    // first.
+    let x = |label| centred_label_x(&plot.svg, label);
+    assert!(
+        x("0.0") < x("0.1") && x("0.1") < x("0.5"),
+        "{:?}",
+        ["0.0", "0.1", "0.5"].map(x)
+    );
+}
+
+#[test]
+fn plots_the_generations_against_one_key() {
+    let sweep = sweep_sample();
+    let plot = generations_against(&grid("epsilon", &["guided.epsilon"]), &sweep).unwrap();
+    check(
+        &plot,
+        &[
+            "Median generations to land, grid epsilon",
+            "general GA",
+            "guided GA",
+            "median, 95% CI",
+            "generations to a safe landing (median)",
+        ],
+    );
+}
+
+#[test]
+fn plots_the_heatmap_of_two_keys() {
+    let sweep = sweep_sample();
+    let plot = heatmap(&grid("pair", &["ga.crossover", "guided.epsilon"]), &sweep).unwrap();
+    check(
+        &plot,
+        &[
+            "Share of pairs won by the guided GA, grid pair",
+            "ga.crossover",
+            "guided.epsilon",
+            "share won",
+            "paper: 24 of 25",
+            "cells: share, 95% CI",
+        ],
+    );
+    // Settings 3, 4 and 5 have shares ⅔, ⅓ and ⅓: each written in its cell.
+    assert!(plot.svg.contains(">\n0.67\n<") && plot.svg.contains(">\n0.33\n<"));
+    // Words keep the sweep's order; numbers go up.
+    let x = |label| centred_label_x(&plot.svg, label);
+    assert!(
+        x("uniform") < x("buckland"),
+        "{:?}",
+        ["uniform", "buckland"].map(x)
+    );
+    let y = |label| left_label_y(&plot.svg, label);
+    assert!(y("0.1") < y("0.0"), "{:?}", ["0.0", "0.1"].map(y));
+}
+
+#[test]
+fn sweep_plots_without_data_say_why() {
+    let sweep = sweep_sample();
+    let one = grid("epsilon", &["guided.epsilon"]);
+    let two = grid("pair", &["ga.crossover", "guided.epsilon"]);
+    let missing = grid("missing", &["guided.epsilon"]);
+    check(
+        &share_against(&two, &sweep).unwrap(),
+        &["no data: grid pair has 2 keys; this plot needs 1"],
+    );
+    check(
+        &generations_against(&two, &sweep).unwrap(),
+        &["no data: grid pair has 2 keys"],
+    );
+    check(
+        &heatmap(&one, &sweep).unwrap(),
+        &["no data: grid epsilon has 1 keys; this plot needs 2"],
+    );
+    check(
+        &share_against(&missing, &sweep).unwrap(),
+        &["no data: no settings in grid missing"],
+    );
+    check(
+        &heatmap(&grid("missing", &["a", "b"]), &sweep).unwrap(),
+        &["no data: no settings in grid missing"],
+    );
+    let empty = crate::sweep::sweep_summary("e", 1, 0, &[]);
+    check(
+        &generations_against(&one, &empty).unwrap(),
+        &["no data: no settings in grid epsilon"],
+    );
+}
