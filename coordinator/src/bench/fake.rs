@@ -69,6 +69,10 @@ impl Fake {
 }
 
 impl Evaluator for Fake {
+    fn drive(&mut self, work: &mut (dyn FnMut(&mut dyn Evaluator) + Send)) {
+        work(self)
+    }
+
     fn evaluate_many(
         &mut self,
         batches: Vec<Batch<'_>>,

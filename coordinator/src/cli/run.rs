@@ -95,12 +95,20 @@ pub fn run(args: RunArgs, stop: &Stop) -> anyhow::Result<()> {
     prepare(&out)?;
     let mut log = GenerationLog::create(&out)?;
     let started = Instant::now();
-    let result = run_trial(&cfg, evaluator.as_mut(), &mut |g: &Generation| {
-        show(&bar, g);
-        log.write(g)?;
-        Ok(())
-    })
-    .context("the trial stopped")?;
+    // The trial runs on an evaluation thread, where there is one: see
+    // `Evaluator::drive`.
+    let mut outcome = None;
+    evaluator.drive(&mut |evaluator| {
+        outcome = Some(run_trial(&cfg, evaluator, &mut |g: &Generation| {
+            show(&bar, g);
+            log.write(g)?;
+            Ok(())
+        }));
+    });
+    let Some(outcome) = outcome else {
+        anyhow::bail!("the evaluator never ran the trial");
+    };
+    let result = outcome.context("the trial stopped")?;
     let wall_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     drop(evaluator);

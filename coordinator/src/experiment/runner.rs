@@ -6,7 +6,7 @@
 
 use super::file::Experiment;
 use crate::config::RunConfig;
-use crate::evaluator::{Backend, EvalError};
+use crate::evaluator::{Backend, EvalError, Evaluator};
 use crate::trial::{Generation, TrialError, TrialResult, TrialRun};
 use lander_model::Method;
 use lander_model::TrainJob;
@@ -81,16 +81,20 @@ pub enum ExperimentError {
 /// Runs `tasks` with at most `in_flight` GA trials at once. Every trial's
 /// results depend only on its configuration, never on `in_flight`, the
 /// backend, the other tasks or the order of finishing.
-pub fn run<K: Copy + Send>(
+pub fn run<K: Copy + Send + Sync>(
     tasks: &[Task<K>],
     backend: &mut dyn Backend,
     in_flight: usize,
-    progress: &mut dyn Progress<K>,
+    progress: &mut (dyn Progress<K> + Send),
 ) -> Result<(), ExperimentError> {
     let (learning, evolving): (Vec<&Task<K>>, Vec<&Task<K>>) = tasks
         .iter()
         .partition(|t| t.cfg.method == Method::Qlearning);
-    evolve(&evolving, backend, in_flight.max(1), progress)?;
+    let mut evolved = Ok(());
+    backend.drive(&mut |evaluator| {
+        evolved = evolve(&evolving, evaluator, in_flight.max(1), progress);
+    });
+    evolved?;
     learn(&learning, backend, progress)
 }
 
@@ -103,7 +107,7 @@ struct Running<K> {
 
 fn evolve<K: Copy + Send>(
     tasks: &[&Task<K>],
-    backend: &mut dyn Backend,
+    backend: &mut dyn Evaluator,
     in_flight: usize,
     progress: &mut dyn Progress<K>,
 ) -> Result<(), ExperimentError> {

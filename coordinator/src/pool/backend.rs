@@ -45,6 +45,10 @@ impl<T: Transport> Trainer for Pool<T> {
 }
 
 impl<T: Transport> Evaluator for Pool<T> {
+    fn drive(&mut self, work: &mut (dyn FnMut(&mut dyn Evaluator) + Send)) {
+        work(self)
+    }
+
     fn worker_busy(&self) -> Option<std::time::Duration> {
         Some(self.busy)
     }
