@@ -83,7 +83,7 @@ pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
     }
     let since = Instant::now();
     let mut backend = args.transport.evaluator(args.threads, &overall, stop)?;
-    let in_flight = in_flight(args.in_flight, args.transport.workers, args.threads)?;
+    let in_flight = in_flight(args.in_flight, 4, args.transport.workers, args.threads)?;
     let mut progress = Bars {
         bars: &bars,
         overall: &overall,
@@ -108,10 +108,11 @@ pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// How many GA trials to step together: `asked`, or 4 per spawned worker
-/// or per evaluation thread.
+/// How many GA trials to step together: `asked`, or `per` per spawned
+/// worker or per evaluation thread.
 pub(super) fn in_flight(
     asked: Option<usize>,
+    per: usize,
     workers: usize,
     threads: usize,
 ) -> anyhow::Result<usize> {
@@ -124,7 +125,7 @@ pub(super) fn in_flight(
         (0, threads) => threads,
         (workers, _) => workers,
     };
-    Ok(asked.unwrap_or(4 * width))
+    Ok(asked.unwrap_or(per * width))
 }
 
 /// Says how busy the spawned workers were since `since`: their time on

@@ -20,6 +20,12 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
+/// A sweep has trials to spare: more of them in flight means fewer rounds,
+/// each with more chunks to share out. On 2 workers, 64 in flight took
+/// 0.75–0.93 of the time of 8 (docs/performance.md); in-process it changes
+/// nothing.
+const IN_FLIGHT_PER_WORKER: usize = 32;
+
 #[derive(Args, Debug)]
 pub struct SweepArgs {
     /// The sweep file, such as experiments/fidelity.toml.
@@ -41,7 +47,7 @@ pub struct SweepArgs {
     #[arg(long, default_value_t = 0)]
     threads: usize,
     /// GA trials stepped together, a generation of each per round
-    /// [default: 4 per spawned worker, or per evaluation thread without
+    /// [default: 32 per spawned worker, or per evaluation thread without
     /// --workers (so per local core with --attach)].
     #[arg(long, value_name = "N")]
     in_flight: Option<usize>,
@@ -95,7 +101,7 @@ pub fn sweep(args: SweepArgs, stop: &Stop) -> anyhow::Result<()> {
     }
     let since = Instant::now();
     let mut backend = args.transport.evaluator(args.threads, &overall, stop)?;
-    let in_flight = in_flight(args.in_flight, args.transport.workers, args.threads)?;
+    let in_flight = in_flight(args.in_flight, IN_FLIGHT_PER_WORKER, args.transport.workers, args.threads)?;
     let mut progress = Bars {
         sweep: &sweep,
         plan: &plan,
