@@ -8,12 +8,14 @@
 //!   iceoryx2 on this host or zenoh from any host.
 //! - [`bench`](mod@bench): the throughput comparison behind `lander bench`.
 //! - [`run_files`]: what a run writes: JSON lines, `best.json`, the summary.
+//! - [`checkpoint`]: `checkpoint.bin`, a run saved between generations.
 //! - [`experiment`]: many paired trials, resumable, with tables, plots and a report.
 //! - [`recording`]: genomes flown into Recordings for replays.
 //! - [`sweep`]: one experiment under many settings, as one workload.
 //! - [`stop`]: the handle that asks the evaluators to stop.
 
 pub mod bench;
+pub mod checkpoint;
 pub mod config;
 pub mod evaluator;
 pub mod experiment;

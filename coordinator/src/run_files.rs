@@ -7,7 +7,7 @@ use crate::trial::{Generation, TrialResult};
 use lander_model::{format_genome, Method, Outcome};
 use serde::Serialize;
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::{BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
 
 /// Which trial a record is about, and whether it landed: the fields every
@@ -198,10 +198,47 @@ impl GenerationLog {
         })
     }
 
+    /// The log of a resumed run: its first `keep` lines, the generations
+    /// its checkpoint had flown, and then the new ones. Lines past them,
+    /// written after the checkpoint, are cut, so that each generation is
+    /// in the log once. Fewer than `keep` lines is an error, and changes
+    /// nothing.
+    pub fn resume(dir: &Path, keep: u64) -> Result<GenerationLog, WriteError> {
+        let path = dir.join("generations.jsonl");
+        let text = std::fs::read(&path).map_err(at(&path))?;
+        let mut end = 0;
+        for _ in 0..keep {
+            match text[end..].iter().position(|&b| b == b'\n') {
+                Some(i) => end += i + 1,
+                None => {
+                    let message = format!(
+                        "holds fewer generations than its checkpoint's {keep}; the folder is not one run's"
+                    );
+                    return Err(at(&path)(std::io::Error::other(message)));
+                }
+            }
+        }
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .open(&path)
+            .map_err(at(&path))?;
+        file.set_len(end as u64).map_err(at(&path))?;
+        let mut out = BufWriter::new(file);
+        out.seek(std::io::SeekFrom::End(0)).map_err(at(&path))?;
+        Ok(GenerationLog { out, path })
+    }
+
     pub fn write(&mut self, g: &Generation) -> Result<(), WriteError> {
         serde_json::to_writer(&mut self.out, g).map_err(|e| at(&self.path)(e.into()))?;
         self.out.write_all(b"\n").map_err(at(&self.path))?;
         self.out.flush().map_err(at(&self.path))
+    }
+
+    /// Makes what was written durable, before a checkpoint that counts on
+    /// it.
+    pub fn sync(&mut self) -> Result<(), WriteError> {
+        self.out.flush().map_err(at(&self.path))?;
+        self.out.get_ref().sync_data().map_err(at(&self.path))
     }
 }
 

@@ -8,7 +8,7 @@ use crate::ga::{next_generation, random_population, Genome};
 use lander_model::stream::streams;
 use lander_model::{Env, Pass, StreamKey};
 use lander_model::{Evaluation, Outcome};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// One generation's record, a line of `generations.jsonl`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -26,7 +26,7 @@ pub struct Generation {
 }
 
 /// The best individual of the trial's last attempt.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Best {
     pub genome: Genome,
     pub outcome: Outcome,
@@ -60,6 +60,8 @@ pub enum TrialError {
     Observer(ObserveError),
     #[error("no trial is numbered past {0}")]
     TrialNumber(u64),
+    #[error("the saved trial does not fit its configuration: {0}")]
+    State(String),
 }
 
 /// Runs one trial.
@@ -69,14 +71,38 @@ pub fn run_trial(
     observe: &mut Observer<'_>,
 ) -> Result<TrialResult, TrialError> {
     let mut run = TrialRun::new(cfg)?;
+    finish_trial(&mut run, evaluator, &mut |g, _| observe(g))
+}
+
+/// Runs `run` to its end. `observe` sees each generation, and the run as
+/// it stands after it (to save it); on an error `run` stands before the
+/// generation that failed, so that it can be saved and resumed.
+pub fn finish_trial(
+    run: &mut TrialRun,
+    evaluator: &mut dyn Evaluator,
+    observe: &mut dyn FnMut(&Generation, &TrialRun) -> Result<(), ObserveError>,
+) -> Result<TrialResult, TrialError> {
     loop {
-        let evaluations = evaluator.evaluate(run.batch())?;
-        let generation = run.accept(&evaluations);
-        observe(&generation).map_err(TrialError::Observer)?;
         if let Some(result) = run.result() {
             return Ok(result.clone());
         }
+        let evaluations = evaluator.evaluate(run.batch())?;
+        let generation = run.accept(&evaluations);
+        observe(&generation, run).map_err(TrialError::Observer)?;
     }
+}
+
+/// Everything a trial under way needs to go on exactly as it would have:
+/// saved between generations, its next generation still to fly.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrialState {
+    pub restart: u64,
+    /// The generation to fly next, within its restart, from 1.
+    pub generation: u64,
+    /// Generations flown so far, across restarts.
+    pub index: u64,
+    pub population: Vec<Genome>,
+    pub best: Option<Best>,
 }
 
 /// A trial as a state machine, one generation per step: [`batch`] is the
@@ -193,6 +219,64 @@ impl TrialRun {
         } else {
             self.begin_attempt(self.restart + 1);
         }
+    }
+
+    /// The trial as it stands between generations; `None` once it has
+    /// ended.
+    pub fn state(&self) -> Option<TrialState> {
+        if self.result.is_some() {
+            return None;
+        }
+        Some(TrialState {
+            restart: self.restart,
+            generation: self.generation,
+            index: self.index,
+            population: self.population.clone(),
+            best: self.best.clone(),
+        })
+    }
+
+    /// The trial `cfg` saved as `state`, to go on from there. A state that
+    /// `cfg` could not have produced is refused, saying why.
+    pub fn resume(cfg: &RunConfig, state: TrialState) -> Result<TrialRun, TrialError> {
+        let mut run = TrialRun::new(cfg)?;
+        let ga = &cfg.ga;
+        let problem = if state.restart > ga.max_restarts {
+            Some(format!(
+                "restart {} is past max_restarts {}",
+                state.restart, ga.max_restarts
+            ))
+        } else if !(1..=ga.max_generations).contains(&state.generation) {
+            Some(format!(
+                "generation {} is outside 1 to max_generations {}",
+                state.generation, ga.max_generations
+            ))
+        } else if state.index < state.generation - 1 {
+            Some(format!(
+                "{} generations flown, fewer than this attempt's",
+                state.index
+            ))
+        } else if state.population.len() != ga.population {
+            Some(format!(
+                "{} genomes, where the population is {}",
+                state.population.len(),
+                ga.population
+            ))
+        } else if state.population.iter().any(|g| g.len() != ga.genome_length) {
+            Some(format!("a genome is not {} genes long", ga.genome_length))
+        } else {
+            None
+        };
+        if let Some(problem) = problem {
+            return Err(TrialError::State(problem));
+        }
+        run.env = cfg.env(state.restart);
+        run.restart = state.restart;
+        run.generation = state.generation;
+        run.index = state.index;
+        run.population = state.population;
+        run.best = state.best;
+        Ok(run)
     }
 
     /// The trial's result, once it has one.

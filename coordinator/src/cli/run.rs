@@ -5,12 +5,15 @@ use super::transport::TransportArgs;
 use anyhow::{bail, Context};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use lander_coordinator::checkpoint::{self, Checkpoint};
 use lander_coordinator::config::RunConfig;
+use lander_coordinator::evaluator::Backend;
+use lander_coordinator::experiment::store::first_difference;
 use lander_coordinator::run_files::{
     clear_run_outputs, write_json, BestRecord, GenerationLog, RunSummary,
 };
 use lander_coordinator::stop::Stop;
-use lander_coordinator::trial::{run_trial, Generation};
+use lander_coordinator::trial::{finish_trial, Generation, TrialRun};
 use lander_model::Method;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -49,6 +52,15 @@ pub struct RunArgs {
     /// earlier run's outputs in it are replaced.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Save the run to checkpoint.bin every N generations, and when
+    /// stopped by SIGINT or SIGTERM; 0 saves only then (GA methods).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_CHECKPOINT_EVERY)]
+    checkpoint_every: u64,
+    /// Go on with the run saved in DIR/checkpoint.bin, to the results an
+    /// uninterrupted run would have had. Flags that change the
+    /// configuration are refused unless they match the saved run's.
+    #[arg(long, value_name = "DIR", conflicts_with = "out")]
+    resume: Option<PathBuf>,
     /// Print one JSON summary object on stdout.
     #[arg(long)]
     json: bool,
@@ -56,11 +68,22 @@ pub struct RunArgs {
     transport: TransportArgs,
 }
 
+/// Generations between checkpoints unless told: a checkpoint costs about
+/// a millisecond (fsync included), a generation of 100 genomes about half
+/// of one, so this keeps their cost near 1% (docs/reliability.md).
+const DEFAULT_CHECKPOINT_EVERY: u64 = 250;
+
 impl RunArgs {
     fn config(&self) -> anyhow::Result<RunConfig> {
+        self.config_over(RunConfig::default())
+    }
+
+    /// The configuration: the --config file's, else `base`, with the flags
+    /// given applied.
+    fn config_over(&self, base: RunConfig) -> anyhow::Result<RunConfig> {
         let mut cfg = match &self.config {
             Some(path) => RunConfig::load(path)?,
-            None => RunConfig::default(),
+            None => base,
         };
         cfg.method = self.method.unwrap_or(cfg.method);
         cfg.qlearning.episodes = self.episodes.unwrap_or(cfg.qlearning.episodes);
@@ -76,6 +99,9 @@ impl RunArgs {
 }
 
 pub fn run(args: RunArgs, stop: &Stop) -> anyhow::Result<()> {
+    if let Some(dir) = &args.resume {
+        return resume(&args, dir, stop);
+    }
     let cfg = args.config()?;
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from("runs").join(format!(
@@ -91,30 +117,122 @@ pub fn run(args: RunArgs, stop: &Stop) -> anyhow::Result<()> {
         return super::learning::learn(&cfg, &out, args.json, pool, stop);
     }
     let bar = progress_bar(cfg.ga.max_generations);
-    let mut evaluator = args.transport.evaluator(cfg.threads, &bar, stop)?;
+    let evaluator = args.transport.evaluator(cfg.threads, &bar, stop)?;
     prepare(&out)?;
-    let mut log = GenerationLog::create(&out)?;
+    let log = GenerationLog::create(&out)?;
+    let run = TrialRun::new(&cfg)?;
+    evolve(&args, &cfg, &out, run, log, evaluator, bar)
+}
+
+/// `lander run --resume DIR`: the saved run, checked against the flags,
+/// its log cut back to the checkpoint, and on to the end.
+fn resume(args: &RunArgs, dir: &Path, stop: &Stop) -> anyhow::Result<()> {
+    let saved = checkpoint::load(dir)?;
+    let cfg = args.config_over(saved.config.clone())?;
+    if let Some(field) = differs(&saved.config, &cfg) {
+        bail!(
+            "{}: the saved run's {field} differs from this command's; \
+             resume it without flags that change its configuration",
+            dir.join(checkpoint::FILE).display()
+        );
+    }
+    let index = saved.state.index;
+    let run = TrialRun::resume(&cfg, saved.state)
+        .with_context(|| dir.join(checkpoint::FILE).display().to_string())?;
+    let bar = progress_bar(cfg.ga.max_generations);
+    let evaluator = args.transport.evaluator(cfg.threads, &bar, stop)?;
+    let log = GenerationLog::resume(dir, index)?;
+    eprintln!("resuming {} after generation {index}", dir.display());
+    evolve(args, &cfg, dir, run, log, evaluator, bar)
+}
+
+/// The first field where two configurations differ, thread counts aside
+/// (they change no result).
+fn differs(saved: &RunConfig, now: &RunConfig) -> Option<String> {
+    let plain = |c: &RunConfig| {
+        let mut c = c.clone();
+        c.threads = 0;
+        serde_json::to_value(c).unwrap_or_default()
+    };
+    first_difference(&plain(saved), &plain(now), "")
+}
+
+/// Flies `run` to its end, logging every generation and saving a
+/// checkpoint every `--checkpoint-every` generations and when stopped;
+/// then writes the best lander and the summary.
+fn evolve(
+    args: &RunArgs,
+    cfg: &RunConfig,
+    out: &Path,
+    mut run: TrialRun,
+    mut log: GenerationLog,
+    mut evaluator: Box<dyn Backend>,
+    bar: ProgressBar,
+) -> anyhow::Result<()> {
+    let every = args.checkpoint_every;
+    let save = |run: &TrialRun, log: &mut GenerationLog| -> anyhow::Result<()> {
+        let Some(state) = run.state() else {
+            return Ok(());
+        };
+        log.sync()?;
+        checkpoint::save(
+            out,
+            &Checkpoint {
+                config: cfg.clone(),
+                state,
+            },
+        )?;
+        Ok(())
+    };
     let started = Instant::now();
     // The trial runs on an evaluation thread, where there is one: see
     // `Evaluator::drive`.
     let mut outcome = None;
     evaluator.drive(&mut |evaluator| {
-        outcome = Some(run_trial(&cfg, evaluator, &mut |g: &Generation| {
+        outcome = Some(finish_trial(&mut run, evaluator, &mut |g, run| {
             show(&bar, g);
             log.write(g)?;
+            if every > 0 && g.index % every == 0 {
+                save(run, &mut log)?;
+            }
             Ok(())
         }));
     });
     let Some(outcome) = outcome else {
-        anyhow::bail!("the evaluator never ran the trial");
+        bail!("the evaluator never ran the trial");
     };
-    let result = outcome.context("the trial stopped")?;
+    let result = match outcome {
+        Ok(result) => result,
+        Err(e) => {
+            // Between generations the run is whole: save it, whatever
+            // stopped it.
+            bar.finish_and_clear();
+            drop(evaluator);
+            let saved = save(&run, &mut log);
+            let hint = match (&saved, run.state()) {
+                (Ok(()), Some(state)) => format!(
+                    "; saved after generation {}: `lander run --resume {}` goes on",
+                    state.index,
+                    out.display()
+                ),
+                (Err(e), _) => format!("; saving checkpoint.bin failed: {e:#}"),
+                _ => String::new(),
+            };
+            return Err(anyhow::Error::new(e).context(format!("the trial stopped{hint}")));
+        }
+    };
     let wall_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     drop(evaluator);
-
+    let cfg = cfg.clone();
+    let out = out.to_path_buf();
     let best_path = out.join("best.json");
     write_json(&best_path, &BestRecord::new(&cfg, &result))?;
+    // The run is over; nothing is left to resume.
+    let saved = out.join(checkpoint::FILE);
+    if saved.exists() {
+        std::fs::remove_file(&saved).with_context(|| format!("removing {}", saved.display()))?;
+    }
     let summary = RunSummary::new(&cfg, &result, wall_s);
     if args.json {
         println!("{}", serde_json::to_string(&summary)?);
@@ -147,6 +265,14 @@ fn prepare(out: &Path) -> anyhow::Result<()> {
     if out.join("experiment.json").exists() {
         bail!(
             "{} holds an experiment (experiment.json); give the run another --out",
+            out.display()
+        );
+    }
+    if out.join(checkpoint::FILE).exists() {
+        bail!(
+            "{} holds an unfinished run (checkpoint.bin); `lander run --resume {}` finishes it, \
+             or give this run another --out",
+            out.display(),
             out.display()
         );
     }

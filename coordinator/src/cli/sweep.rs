@@ -101,7 +101,12 @@ pub fn sweep(args: SweepArgs, stop: &Stop) -> anyhow::Result<()> {
     }
     let since = Instant::now();
     let mut backend = args.transport.evaluator(args.threads, &overall, stop)?;
-    let in_flight = in_flight(args.in_flight, IN_FLIGHT_PER_WORKER, args.transport.workers, args.threads)?;
+    let in_flight = in_flight(
+        args.in_flight,
+        IN_FLIGHT_PER_WORKER,
+        args.transport.workers,
+        args.threads,
+    )?;
     let mut progress = Bars {
         sweep: &sweep,
         plan: &plan,

@@ -136,11 +136,7 @@ impl Store {
 }
 
 /// The dotted path of the first field where two JSON values differ.
-pub(crate) fn first_difference(
-    a: &serde_json::Value,
-    b: &serde_json::Value,
-    at: &str,
-) -> Option<String> {
+pub fn first_difference(a: &serde_json::Value, b: &serde_json::Value, at: &str) -> Option<String> {
     use serde_json::Value::Object;
     match (a, b) {
         (Object(x), Object(y)) => {

@@ -1,0 +1,287 @@
+//! `lander run --resume`: a run SIGKILLed early, midway or during a
+//! restart, in-process and on 2 workers, goes on from its checkpoint to the
+//! very outputs of a run never stopped; SIGTERM saves it too; damaged,
+//! foreign or missing checkpoints are refused, changing nothing.
+
+use lander_tests::{binary, lander, lines_in, stderr, wait_until, without_wall_time, Iox};
+use serde_json::Value;
+use std::fs;
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+
+/// A run long enough to be caught midway, short enough for a test: guided
+/// or general GA, 1,000 genomes, restarts after 40 generations; both
+/// methods restart three times (160 and 152 generations).
+const CONFIG: &str =
+    "seed = 2\ntrial = 3\n[ga]\npopulation = 1000\nmax_generations = 40\nmax_restarts = 3\n";
+
+/// Polls `ready` every millisecond for up to a minute: a generation takes
+/// a few, and a kill should land near where it was aimed.
+fn soon(mut ready: impl FnMut() -> bool) -> bool {
+    let end = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while std::time::Instant::now() < end {
+        if ready() {
+            return true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    false
+}
+
+fn config(dir: &Path) -> String {
+    let path = dir.join("run.toml");
+    fs::write(&path, CONFIG).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+fn args<'a>(cfg: &'a str, method: &'a str, out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec![
+        "run",
+        "--config",
+        cfg,
+        "--method",
+        method,
+        "--json",
+        "--out",
+        out,
+        "--checkpoint-every",
+        "5",
+    ];
+    a.extend_from_slice(extra);
+    a
+}
+
+/// What must not differ between a run and its resumed twin.
+fn outputs(dir: &Path, out: &Output) -> (Vec<u8>, Vec<u8>, Value) {
+    assert!(out.status.success(), "{}", stderr(out));
+    let summary: Value = serde_json::from_slice(&out.stdout).expect("--json prints JSON");
+    (
+        fs::read(dir.join("generations.jsonl")).unwrap(),
+        fs::read(dir.join("best.json")).unwrap(),
+        without_wall_time(summary),
+    )
+}
+
+/// The generations logged so far, as (index, restart).
+fn logged(path: &Path) -> Vec<(u64, u64)> {
+    fs::read_to_string(path)
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+        .map(|v| {
+            (
+                v["index"].as_u64().unwrap_or(0),
+                v["restart"].as_u64().unwrap_or(0),
+            )
+        })
+        .collect()
+}
+
+/// Where to kill a run, judged from its log.
+#[derive(Clone, Copy, Debug)]
+enum When {
+    Early,
+    Midway,
+    InARestart,
+}
+
+impl When {
+    fn now(self, log: &[(u64, u64)]) -> bool {
+        match self {
+            When::Early => log.len() >= 12,
+            When::Midway => log.len() >= 45,
+            When::InARestart => log.iter().any(|&(_, restart)| restart >= 2),
+        }
+    }
+}
+
+fn kill_and_resume(method: &str, workers: bool, when: When, whole: &(Vec<u8>, Vec<u8>, Value)) {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = config(dir.path());
+    let out = dir.path().join("run");
+    let out_s = out.to_str().unwrap();
+    let iox = Iox::new(&format!("ckpt_{method}_{when:?}"));
+    let run_id = format!("ckpt{}{:?}{}", method, when, std::process::id()).to_lowercase();
+    let extra: Vec<&str> = if workers {
+        vec!["--workers", "2", "--run-id", &run_id]
+    } else {
+        Vec::new()
+    };
+    let mut child = iox
+        .command("lander")
+        .args(args(&cfg, method, out_s, &extra))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let log = out.join("generations.jsonl");
+    let caught = soon(|| when.now(&logged(&log)));
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(caught, "{method} {when:?}: the run never got there");
+    assert!(
+        !out.join("best.json").exists(),
+        "{method} {when:?}: the run ended before the kill"
+    );
+    assert!(
+        out.join("checkpoint.bin").exists(),
+        "{method} {when:?}: no checkpoint"
+    );
+    if workers {
+        // The killed coordinator's workers see it gone and leave.
+        let gone = wait_until(20, || {
+            let found = Command::new("pgrep")
+                .args(["-f", &run_id])
+                .output()
+                .unwrap();
+            found.stdout.is_empty()
+        });
+        assert!(
+            gone,
+            "{method} {when:?}: workers of the killed run are still there"
+        );
+    }
+    let resumed = iox.lander(&["run", "--resume", out_s, "--json"]);
+    assert_eq!(
+        &outputs(&out, &resumed),
+        whole,
+        "{method} {when:?}, workers {workers}"
+    );
+    assert!(
+        !out.join("checkpoint.bin").exists(),
+        "a finished run keeps no checkpoint"
+    );
+    assert_eq!(
+        iox.shm_files(),
+        Vec::<String>::new(),
+        "shared memory left behind"
+    );
+    assert_eq!(
+        iox.root_files(),
+        Vec::<std::path::PathBuf>::new(),
+        "iceoryx2 files left behind"
+    );
+}
+
+#[test]
+fn a_killed_run_resumes_to_the_outputs_of_a_run_never_stopped() {
+    for method in ["ga", "guided"] {
+        let dir = tempfile::tempdir().unwrap();
+        let cfg = config(dir.path());
+        let out = dir.path().join("whole");
+        let run = lander(&args(&cfg, method, out.to_str().unwrap(), &[]));
+        let whole = outputs(&out, &run);
+        let log = logged(&out.join("generations.jsonl"));
+        assert!(
+            log.iter().any(|&(_, r)| r >= 2) && log.len() > 60,
+            "{method}: the run must restart twice for the test to mean anything ({} generations)",
+            log.len()
+        );
+        for workers in [false, true] {
+            for when in [When::Early, When::Midway, When::InARestart] {
+                kill_and_resume(method, workers, when, &whole);
+            }
+        }
+    }
+}
+
+#[test]
+fn sigterm_saves_the_run_and_resume_finishes_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = config(dir.path());
+    let whole_dir = dir.path().join("whole");
+    let whole = outputs(
+        &whole_dir,
+        &lander(&args(&cfg, "guided", whole_dir.to_str().unwrap(), &[])),
+    );
+    let out = dir.path().join("run");
+    let out_s = out.to_str().unwrap();
+    // Checkpoints only when stopped.
+    let mut a = args(&cfg, "guided", out_s, &[]);
+    let n = a.len();
+    a[n - 1] = "0";
+    let child = Command::new(binary("lander"))
+        .args(&a)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    assert!(wait_until(60, || lines_in(&out.join("generations.jsonl")) >= 20));
+    lander_tests::signal(child.id(), "TERM");
+    let stopped = child.wait_with_output().unwrap();
+    assert!(!stopped.status.success());
+    assert!(
+        stderr(&stopped).contains("--resume"),
+        "{}",
+        stderr(&stopped)
+    );
+    assert!(out.join("checkpoint.bin").exists());
+    let resumed = lander(&["run", "--resume", out_s, "--json"]);
+    assert_eq!(outputs(&out, &resumed), whole);
+}
+
+#[test]
+fn bad_checkpoints_are_refused_and_nothing_is_overwritten() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = config(dir.path());
+    let out = dir.path().join("run");
+    let out_s = out.to_str().unwrap();
+    let child = Command::new(binary("lander"))
+        .args(args(&cfg, "ga", out_s, &[]))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut child = child;
+    assert!(wait_until(60, || lines_in(&out.join("generations.jsonl")) >= 20));
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let saved = fs::read(out.join("checkpoint.bin")).unwrap();
+    let log = fs::read(out.join("generations.jsonl")).unwrap();
+    let refused = |extra: &[&str], wanted: &[&str]| {
+        let mut a = vec!["run", "--resume", out_s];
+        a.extend_from_slice(extra);
+        let run = lander(&a);
+        assert!(!run.status.success(), "{extra:?}");
+        let err = stderr(&run);
+        for w in wanted {
+            assert!(err.contains(w), "{extra:?}: {err}\n(wanted {w:?})");
+        }
+        assert!(!err.contains("panicked"), "{err}");
+        assert_eq!(
+            fs::read(out.join("generations.jsonl")).unwrap(),
+            log,
+            "the log changed"
+        );
+        assert!(!out.join("best.json").exists());
+    };
+    // Another configuration.
+    refused(
+        &["--population", "50"],
+        &["checkpoint.bin", "ga.population differs"],
+    );
+    refused(
+        &["--method", "guided"],
+        &["checkpoint.bin", "method differs"],
+    );
+    // Truncated, corrupt, of another format, missing.
+    fs::write(out.join("checkpoint.bin"), &saved[..saved.len() / 2]).unwrap();
+    refused(&[], &["checkpoint.bin", "truncated"]);
+    let mut corrupt = saved.clone();
+    let at = corrupt.len() - 10;
+    corrupt[at] ^= 0x40;
+    fs::write(out.join("checkpoint.bin"), &corrupt).unwrap();
+    refused(&[], &["checkpoint.bin", "corrupt"]);
+    let mut other = saved.clone();
+    other[8] = 9;
+    fs::write(out.join("checkpoint.bin"), &other).unwrap();
+    refused(&[], &["checkpoint.bin", "format 9"]);
+    fs::remove_file(out.join("checkpoint.bin")).unwrap();
+    refused(&[], &["checkpoint.bin"]);
+    // A fresh run does not overwrite an unfinished one.
+    fs::write(out.join("checkpoint.bin"), &saved).unwrap();
+    let fresh = lander(&args(&cfg, "ga", out_s, &[]));
+    assert!(!fresh.status.success());
+    assert!(stderr(&fresh).contains("--resume"), "{}", stderr(&fresh));
+    assert_eq!(fs::read(out.join("generations.jsonl")).unwrap(), log);
+}
