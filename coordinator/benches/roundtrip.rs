@@ -36,6 +36,7 @@ fn worker_pool() -> IpcPool {
         pin: true,
         min_workers: 0,
         spin: std::time::Duration::ZERO,
+        verify: 0.0,
         stop: Default::default(),
     };
     let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("{m}"))).expect("pool starts");

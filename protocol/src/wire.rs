@@ -13,7 +13,8 @@
 
 use iceoryx2::prelude::ZeroCopySend;
 use lander_model::{
-    Action, Env, Evaluation, Gene, GuideParams, LearnParams, Pass, StreamKey, TrainJob, TrainResult,
+    evaluate, Action, Env, Evaluation, Gene, GuideParams, LearnParams, Pass, StreamKey, TrainJob,
+    TrainResult,
 };
 use serde::{Deserialize, Serialize};
 
@@ -210,7 +211,30 @@ fn train_from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<TrainJob, WireEr
 }
 
 impl EvalJob {
-    fn from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<EvalJob, WireError> {
+    /// Evaluates every genome of the job, writing back the actions the
+    /// guided pass chose: what a worker answers, and what the coordinator
+    /// checks a sampled answer against.
+    pub fn run(self) -> ChunkResult {
+        let mut genes = self.genes;
+        let evaluations = genes
+            .chunks_mut(self.genome_length)
+            .enumerate()
+            .map(|(i, g)| {
+                let index = self.first_index + i as u64;
+                evaluate(&self.env, self.pass, &self.guide, self.key, index, g)
+            })
+            .collect();
+        let actions = match self.pass {
+            Pass::Guide => genes.iter().map(|g| g.action.index()).collect(),
+            Pass::Fly => Vec::new(),
+        };
+        ChunkResult {
+            evaluations,
+            actions,
+        }
+    }
+
+    pub fn from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<EvalJob, WireError> {
         let pass = Pass::from_code(h.pass).ok_or(WireError::Pass(h.pass))?;
         let expected = h.genomes as usize * h.genome_length as usize;
         if genes.len() != expected || h.genome_length == 0 {

@@ -78,14 +78,12 @@ fn trials_of(dir: &Path) -> Vec<BTreeMap<String, String>> {
     rows
 }
 
+/// A setting's folder, its trial rows and its `generations.jsonl`.
+type SettingResults = (String, Vec<BTreeMap<String, String>>, Vec<u8>);
+
 /// Everything a sweep computed, wall times aside: the sweep's table and
 /// each setting's trials and generations.
-fn results_of(
-    out: &Path,
-) -> (
-    Vec<u8>,
-    Vec<(String, Vec<BTreeMap<String, String>>, Vec<u8>)>,
-) {
+fn results_of(out: &Path) -> (Vec<u8>, Vec<SettingResults>) {
     let settings = ALONE
         .iter()
         .map(|(folder, _)| {

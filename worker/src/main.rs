@@ -77,6 +77,10 @@ struct Args {
     /// started with --users.
     #[arg(long, value_name = "FILE")]
     credentials: Option<PathBuf>,
+    /// Testing only: answer every evaluation with a wrong fitness, for
+    /// the tests of the coordinator's --verify.
+    #[arg(long, hide = true)]
+    lie: bool,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -91,6 +95,9 @@ fn parse_hex(s: &str) -> Result<u64, String> {
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    if args.lie {
+        serve::start_lying();
+    }
     // Before any thread starts, so that every thread inherits both.
     let placed = args.cpu.map(cpu::pin_to).transpose();
     let batch = cpu::run_as_batch_job();

@@ -4,7 +4,7 @@
 //! pass's actions into the genomes) and training results.
 
 use super::schedule::{chunk_ranges, Chunk};
-use super::{Pool, Transport};
+use super::{verify, Pool, Transport};
 use crate::evaluator::{Batch, EvalError, Evaluator, Trainer};
 use lander_model::{Action, Evaluation, TrainJob, TrainResult};
 use lander_protocol::wire::{
@@ -77,11 +77,17 @@ impl<T: Transport> Evaluator for Pool<T> {
         // The guided actions go back into the genomes as each answer
         // arrives, while other workers still fly: at a generation's end
         // only the last answers' are left to write.
+        let rate = self.opts.verify;
         let results = self.run_chunks(
             &chunks,
             |i, body| {
                 let (_, range, length, pass) = &spans[i];
-                ChunkResult::decode(body, *pass, range.len(), *length).map_err(|e| e.to_string())
+                let result = ChunkResult::decode(body, *pass, range.len(), *length)
+                    .map_err(|e| e.to_string())?;
+                if verify::sampled(&chunks[i].header, rate) {
+                    verify::check(&chunks[i], &result)?;
+                }
+                Ok(result)
             },
             |i, result| {
                 let (b, range, _, _) = &spans[i];

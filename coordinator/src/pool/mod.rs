@@ -35,6 +35,7 @@ mod link;
 mod schedule;
 mod spawn;
 mod timing;
+mod verify;
 mod workers;
 pub mod zenoh;
 
@@ -83,6 +84,9 @@ pub struct PoolOptions {
     /// it sleeps, when each worker and the coordinator have a CPU of their
     /// own (`lander_protocol::spin` says how it adapts); zero never spins.
     pub spin: Duration,
+    /// The share of answered evaluation chunks flown again in-process and
+    /// compared, 0 to 1 (`verify`).
+    pub verify: f64,
     /// Asked to stop, the pool ends the run at its next look.
     pub stop: Stop,
 }

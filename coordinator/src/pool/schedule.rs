@@ -67,6 +67,8 @@ impl<T: Transport> Pool<T> {
         let mut done: Vec<Option<R>> = (0..chunks.len()).map(|_| None).collect();
         // Chunks with an answer in hand, decoded or not.
         let mut answered = vec![false; chunks.len()];
+        // The worker whose answer each chunk took.
+        let mut owner: Vec<Option<u64>> = vec![None; chunks.len()];
         let mut remaining = chunks.len();
         while remaining > 0 {
             if self.opts.stop.asked() {
@@ -82,11 +84,20 @@ impl<T: Transport> Pool<T> {
             self.rebalance(chunks, &mut todo);
             self.dispatch(chunks, &mut todo);
             let mut refused = false;
+            // Workers refused in this pass: their remaining answers are
+            // not read.
+            let mut distrusted = Vec::new();
             for (worker, a) in fresh {
+                if distrusted.contains(&worker) {
+                    answered[a.chunk] = false;
+                    todo.push_front(a.chunk);
+                    continue;
+                }
                 match decode(a.chunk, &a.body) {
                     Ok(value) => {
                         finished(a.chunk, &value);
                         done[a.chunk] = Some(value);
+                        owner[a.chunk] = Some(worker);
                         remaining -= 1;
                     }
                     Err(e) => {
@@ -97,10 +108,24 @@ impl<T: Transport> Pool<T> {
                         answered[a.chunk] = false;
                         todo.push_front(a.chunk);
                         refused = true;
+                        distrusted.push(worker);
+                        // Its other answers are no longer believed either.
+                        for c in 0..chunks.len() {
+                            if owner[c] == Some(worker) && done[c].take().is_some() {
+                                owner[c] = None;
+                                answered[c] = false;
+                                remaining += 1;
+                                todo.push_back(c);
+                            }
+                        }
                     }
                 }
             }
-            self.drop_links(&mut todo, |l| l.is_broken(), "disconnected");
+            self.drop_links(
+                &mut todo,
+                |l| l.is_broken(),
+                "is dropped for a refused answer and not taken back",
+            );
             if remaining == 0 {
                 break;
             }

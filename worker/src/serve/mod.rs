@@ -6,16 +6,14 @@ pub mod iceoryx;
 pub mod zenoh;
 
 use lander_model::learn::run_training;
-use lander_model::{evaluate, Pass};
 use lander_protocol::host::host_clock_ns;
 use lander_protocol::wire::{
-    self, ChunkResult, EvalJob, Job, JobHeader, ResultHeader, Status, WireError, WireGene,
-    PROTOCOL_VERSION,
+    self, ChunkResult, Job, JobHeader, ResultHeader, Status, WireError, WireGene, PROTOCOL_VERSION,
 };
 
 pub use iceoryx::serve;
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// Jobs this process has answered, refusals included: one worker per
 /// process, so one count.
@@ -24,6 +22,25 @@ static ANSWERED: AtomicU64 = AtomicU64::new(0);
 /// Jobs answered so far.
 pub fn answered() -> u64 {
     ANSWERED.load(Ordering::Relaxed)
+}
+
+/// Set by the hidden `--lie` flag, for the tests of `--verify` only.
+static LYING: AtomicBool = AtomicBool::new(false);
+
+/// Makes this worker answer every evaluation with its fitness raised by
+/// one: well-formed, plausible and wrong, as a worker with bad memory or
+/// another build might answer. Only `lander run --verify` catches it.
+pub fn start_lying() {
+    LYING.store(true, Ordering::Relaxed);
+}
+
+fn lie(mut result: ChunkResult) -> ChunkResult {
+    if LYING.load(Ordering::Relaxed) {
+        for e in &mut result.evaluations {
+            e.outcome.fitness += 1.0;
+        }
+    }
+    result
 }
 
 /// Why a worker stopped.
@@ -56,7 +73,7 @@ pub fn answer(
 ) -> (ResultHeader, Vec<u8>) {
     let started_ns = host_clock_ns();
     let (status, body) = match Job::from_wire(header, genes) {
-        Ok(Job::Evaluate(job)) => (Status::Done, run_job(job).encode()),
+        Ok(Job::Evaluate(job)) => (Status::Done, lie(job.run()).encode()),
         Ok(Job::Train(job)) => (Status::Done, wire::encode(&run_training(&job))),
         Err(e) => {
             say(
@@ -80,26 +97,4 @@ pub fn answer(
         finished_ns: host_clock_ns(),
     };
     (result, body)
-}
-
-/// Evaluates every genome of a checked job, writing back the actions the
-/// guided pass chose.
-fn run_job(job: EvalJob) -> ChunkResult {
-    let mut genes = job.genes;
-    let evaluations = genes
-        .chunks_mut(job.genome_length)
-        .enumerate()
-        .map(|(i, g)| {
-            let index = job.first_index + i as u64;
-            evaluate(&job.env, job.pass, &job.guide, job.key, index, g)
-        })
-        .collect();
-    let actions = match job.pass {
-        Pass::Guide => genes.iter().map(|g| g.action.index()).collect(),
-        Pass::Fly => Vec::new(),
-    };
-    ChunkResult {
-        evaluations,
-        actions,
-    }
 }

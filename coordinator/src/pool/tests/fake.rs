@@ -136,6 +136,7 @@ pub fn pool(links: Vec<Recorder>, say: Say) -> Pool<Nowhere> {
         pin: false,
         min_workers: 0,
         spin: std::time::Duration::ZERO,
+        verify: 0.0,
         stop: Stop::new(),
     };
     let mut pool = Pool::with_transport(Nowhere, opts, say).unwrap();

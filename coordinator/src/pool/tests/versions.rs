@@ -71,6 +71,7 @@ fn a_spawned_worker_of_another_build_ends_the_wait_at_once() {
         pin: false,
         min_workers: 0,
         spin: std::time::Duration::ZERO,
+        verify: 0.0,
         stop: Stop::new(),
     };
     let mut pool = Pool::with_transport(OtherBuild { pid_file }, opts, Box::new(|_| ())).unwrap();
