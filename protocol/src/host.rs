@@ -1,8 +1,9 @@
 //! What both sides of a run read of the host they run on: the CPUs this
 //! process may use, from which the coordinator places its workers; the
 //! host's monotonic clock, in which workers stamp their results and the
-//! pool its requests and answers; and a thread's CPU time, which `lander
-//! bench` reports.
+//! pool its requests and answers; a thread's CPU time, which `lander
+//! bench` reports; and this process's memory and open descriptors, which
+//! a soak watches.
 
 use std::time::Duration;
 
@@ -44,6 +45,19 @@ fn cpu_clock(clock: libc::clockid_t) -> Duration {
         return Duration::ZERO;
     }
     Duration::new(t.tv_sec as u64, t.tv_nsec as u32)
+}
+
+/// This process's resident memory in KiB, from /proc; `None` if unknown.
+pub fn resident_kib() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// The file descriptors this process has open, from /proc; `None` if
+/// unknown.
+pub fn open_descriptors() -> Option<usize> {
+    Some(std::fs::read_dir("/proc/self/fd").ok()?.count())
 }
 
 /// The host's monotonic clock in nanoseconds: one clock for every process

@@ -107,6 +107,36 @@ pub fn config() -> Result<Config, IpcError> {
     Ok(config)
 }
 
+/// The iceoryx2 resources of this prefix on the host now: its files in
+/// /dev/shm (shared memory) and under the root (services, nodes, event
+/// sockets). A soak watches that they do not pile up.
+pub fn resource_count() -> usize {
+    fn walk(dir: &std::path::Path) -> usize {
+        std::fs::read_dir(dir)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .map(|e| {
+                let path = e.path();
+                if path.is_dir() {
+                    walk(&path)
+                } else {
+                    1
+                }
+            })
+            .sum()
+    }
+    let prefix = std::env::var(PREFIX_ENV).unwrap_or_else(|_| DEFAULT_PREFIX.into());
+    let shm = std::fs::read_dir("/dev/shm")
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with(&prefix))
+        .count();
+    let root = std::env::var(ROOT_ENV).unwrap_or_else(|_| DEFAULT_ROOT.into());
+    shm + walk(std::path::Path::new(&root))
+}
+
 /// Quiets iceoryx2's own log unless `IOX2_LOG_LEVEL` asks for more.
 pub fn quiet_logs() {
     set_log_level_from_env_or(LogLevel::Error);

@@ -93,6 +93,11 @@ pub struct BenchArgs {
     /// With --stress: worker kills per second, on average.
     #[arg(long, value_name = "PER_S", default_value_t = 2.0)]
     kill_rate: f64,
+    /// With --stress: fly the workload again and again for this long, and
+    /// check that the coordinator's memory, open descriptors and iceoryx2
+    /// files do not grow (a soak).
+    #[arg(long, value_name = "SECONDS", requires = "stress")]
+    soak: Option<u64>,
 }
 
 fn args_for_stress(args: &BenchArgs) -> super::stress::StressArgs {
@@ -101,6 +106,7 @@ fn args_for_stress(args: &BenchArgs) -> super::stress::StressArgs {
         kill_rate: args.kill_rate,
         no_pin: args.no_pin,
         json: args.json,
+        soak: args.soak.map(Duration::from_secs),
     }
 }
 

@@ -21,9 +21,63 @@ pub struct StressArgs {
     pub kill_rate: f64,
     pub no_pin: bool,
     pub json: bool,
+    /// Fly the workload round after round for this long, watching the
+    /// coordinator's resources.
+    pub soak: Option<Duration>,
 }
 
-pub fn stress(args: &StressArgs, work: &Workload, stop: &Stop) -> anyhow::Result<()> {
+/// How much a soak lets the coordinator's resources grow from the end of
+/// its first round to its end: memory by allocator noise, descriptors and
+/// iceoryx2 files by what the workers being respawned at that moment hold.
+const SOAK_RSS_GROWTH_KIB: u64 = 32 * 1024;
+const SOAK_FD_GROWTH: usize = 16;
+const SOAK_IOX_GROWTH_PER_WORKER: usize = 8;
+
+/// The coordinator's resources at one moment of a soak.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+struct Resources {
+    resident_kib: u64,
+    open_descriptors: usize,
+    iceoryx2_files: usize,
+}
+
+impl Resources {
+    fn now() -> Resources {
+        Resources {
+            resident_kib: lander_protocol::host::resident_kib().unwrap_or(0),
+            open_descriptors: lander_protocol::host::open_descriptors().unwrap_or(0),
+            iceoryx2_files: lander_protocol::iox::resource_count(),
+        }
+    }
+}
+
+/// What a soak saw: rounds flown, and the resources after the first round
+/// and at the end.
+#[derive(Debug, serde::Serialize)]
+struct Soak {
+    seconds: f64,
+    rounds: u64,
+    start: Resources,
+    end: Resources,
+    bounds: Resources,
+}
+
+impl Soak {
+    fn within_bounds(&self) -> bool {
+        let grew = |a: usize, b: usize| b.saturating_sub(a);
+        self.end
+            .resident_kib
+            .saturating_sub(self.start.resident_kib)
+            <= self.bounds.resident_kib
+            && grew(self.start.open_descriptors, self.end.open_descriptors)
+                <= self.bounds.open_descriptors
+            && grew(self.start.iceoryx2_files, self.end.iceoryx2_files)
+                <= self.bounds.iceoryx2_files
+    }
+}
+
+pub fn stress(args: &StressArgs, work: &Workload, stop_asked: &Stop) -> anyhow::Result<()> {
+    let stop = stop_asked;
     anyhow::ensure!(
         (0.0..=MAX_KILL_RATE).contains(&args.kill_rate),
         "--kill-rate must be 0 to {MAX_KILL_RATE} kills per second (got {:?})",
@@ -56,17 +110,43 @@ pub fn stress(args: &StressArgs, work: &Workload, stop: &Stop) -> anyhow::Result
         let (stop, kills, rate) = (stop.clone(), kills.clone(), args.kill_rate);
         std::thread::spawn(move || kill_at_random(rate, &stop, &kills))
     });
-    let flown = stress::fly(work, &mut reference, &mut churned);
+    let began = std::time::Instant::now();
+    let mut flown = stress::fly(work, &mut reference, &mut churned);
+    let mut rounds = 1;
+    let start = Resources::now();
+    if let Some(soak) = args.soak {
+        while flown.is_ok() && began.elapsed() < soak && !stop_asked.asked() {
+            flown = stress::fly(work, &mut reference, &mut churned);
+            rounds += 1;
+        }
+    }
+    let end = Resources::now();
     stop.store(true, Ordering::Relaxed);
     if let Some(k) = killer {
         let _ = k.join();
     }
     flown?;
     let kills = kills.load(Ordering::Relaxed);
-    let report = StressReport::new(work, &reference, &churned, args.kill_rate, kills);
+    let mut report = StressReport::new(work, &reference, &churned, args.kill_rate, kills);
+    report.expected *= rounds;
+    let soak = args.soak.map(|_| Soak {
+        seconds: began.elapsed().as_secs_f64(),
+        rounds,
+        start,
+        end,
+        bounds: Resources {
+            resident_kib: SOAK_RSS_GROWTH_KIB,
+            open_descriptors: SOAK_FD_GROWTH,
+            iceoryx2_files: SOAK_IOX_GROWTH_PER_WORKER * args.workers,
+        },
+    });
     drop(churned);
     if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+        let mut value = serde_json::to_value(&report)?;
+        if let (Some(soak), Some(map)) = (&soak, value.as_object_mut()) {
+            map.insert("soak".into(), serde_json::to_value(soak)?);
+        }
+        println!("{}", serde_json::to_string(&value)?);
     } else {
         println!(
             "{} GA under churn: {} genomes × {} generations, {} workers, {} killed ({:.1}/s asked)",
@@ -84,6 +164,30 @@ pub fn stress(args: &StressArgs, work: &Workload, stop: &Stop) -> anyhow::Result
             report.evaluated,
             report.expected,
             report.results_match
+        );
+    }
+    if let Some(soak) = &soak {
+        if !args.json {
+            let show = |r: &Resources| {
+                format!(
+                    "{} KiB resident, {} descriptors, {} iceoryx2 files",
+                    r.resident_kib, r.open_descriptors, r.iceoryx2_files
+                )
+            };
+            println!(
+                "soak: {} rounds in {:.0} s; after the first: {}; at the end: {}",
+                soak.rounds,
+                soak.seconds,
+                show(&soak.start),
+                show(&soak.end)
+            );
+        }
+        anyhow::ensure!(
+            soak.within_bounds(),
+            "the coordinator's resources grew past the soak's bounds ({} KiB, {} descriptors, {} iceoryx2 files)",
+            soak.bounds.resident_kib,
+            soak.bounds.open_descriptors,
+            soak.bounds.iceoryx2_files
         );
     }
     anyhow::ensure!(
