@@ -161,6 +161,17 @@ impl Mode {
         }
     }
 
+    /// A mode that keeps no chunk timings, for runs too long to keep one
+    /// per chunk (a soak): its report has no round-trip figures.
+    pub fn untimed(kind: ModeKind, evaluator: Box<dyn Measured>) -> Mode {
+        Mode {
+            kind,
+            evaluator,
+            tally: Tally::new(),
+            hasher: DefaultHasher::new(),
+        }
+    }
+
     /// The name the report gives it.
     pub fn name(&self) -> String {
         self.kind.name()
