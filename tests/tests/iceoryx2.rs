@@ -11,6 +11,16 @@ use std::fs;
 use std::path::Path;
 use std::process::{Child, Stdio};
 
+/// These tests time faults (a worker stopped, hung or killed mid-run)
+/// against deadlines and take-backs. Run sixteen at once on 2 cores, each
+/// with its own coordinator and workers, two of them failed now and then:
+/// a node file left after Ctrl-C, and a stopped worker whose chunks were
+/// all flown elsewhere before its deadline. They run one at a time.
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    ONE.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
 /// A run long enough to disturb: landing is made impossible, so it flies
 /// exactly 3 × 150 generations of 300 guided genomes.
 const LONG: &[&str] = &[
@@ -63,6 +73,7 @@ fn summary_of(child: Child) -> Value {
 
 #[test]
 fn results_are_byte_identical_for_0_1_2_and_3_workers() {
+    let _one_at_a_time = serial();
     let iox = Iox::new("counts");
     for method in ["ga", "guided"] {
         let args = [
@@ -98,6 +109,7 @@ fn results_are_byte_identical_for_0_1_2_and_3_workers() {
 
 #[test]
 fn a_clean_run_leaves_no_processes_and_no_files() {
+    let _one_at_a_time = serial();
     let iox = Iox::new("clean");
     let dir = tempfile::tempdir().unwrap();
     let child = start(
@@ -125,6 +137,7 @@ fn a_clean_run_leaves_no_processes_and_no_files() {
 
 #[test]
 fn ctrl_c_stops_the_run_cleanly_with_what_it_flew_kept() {
+    let _one_at_a_time = serial();
     let iox = Iox::new("sigint");
     let dir = tempfile::tempdir().unwrap();
     let cfg = never_lands(dir.path());
@@ -165,6 +178,7 @@ fn under_way(iox: &Iox, dir: &Path, args: &[&str], lines: usize) -> (Child, Vec<
 /// many workers as CPUs. Read from the workers' own command lines.
 #[test]
 fn spawned_workers_spin_only_with_a_cpu_to_spare() {
+    let _one_at_a_time = serial();
     let iox = Iox::new("spin");
     // The CPUs the coordinator counts: those this process may run on.
     let cpus = lander_protocol::host::allowed_cpus().len().max(1);
@@ -234,11 +248,13 @@ fn survives(test: &str, extra: &[&str], reported: &str, disturb: impl Fn(&[u32])
 
 #[test]
 fn a_worker_killed_mid_run_loses_no_work() {
+    let _one_at_a_time = serial();
     survives("kill_one", &[], "exited", |w| signal(w[0], "KILL"));
 }
 
 #[test]
 fn every_worker_killed_once_loses_no_work() {
+    let _one_at_a_time = serial();
     survives("kill_all", &[], "exited", |w| {
         for &pid in w {
             signal(pid, "KILL");
@@ -248,6 +264,7 @@ fn every_worker_killed_once_loses_no_work() {
 
 #[test]
 fn a_hung_worker_misses_its_deadline_and_loses_no_work() {
+    let _one_at_a_time = serial();
     survives("hang", &["--deadline", "1"], "missed its deadline", |w| {
         signal(w[0], "STOP")
     });
@@ -255,6 +272,7 @@ fn a_hung_worker_misses_its_deadline_and_loses_no_work() {
 
 #[test]
 fn attached_workers_may_leave_mid_run() {
+    let _one_at_a_time = serial();
     let iox = Iox::new("attach");
     let dir = tempfile::tempdir().unwrap();
     let cfg = never_lands(dir.path());
@@ -325,6 +343,7 @@ fn waiting_worker(iox: &Iox, dir: &Path, run: &str) -> (Child, impl Fn() -> Stri
 
 #[test]
 fn a_worker_for_a_missing_run_waits_and_says_so() {
+    let _one_at_a_time = serial();
     let iox = Iox::new("missing");
     let dir = tempfile::tempdir().unwrap();
     let (child, _) = waiting_worker(&iox, dir.path(), "nosuchrun");
@@ -339,6 +358,7 @@ fn a_worker_for_a_missing_run_waits_and_says_so() {
 
 #[test]
 fn a_worker_stopped_and_resumed_keeps_waiting_until_sigint() {
+    let _one_at_a_time = serial();
     let iox = Iox::new("resumed");
     let dir = tempfile::tempdir().unwrap();
     let (mut worker, said) = waiting_worker(&iox, dir.path(), "notyet");
@@ -361,6 +381,7 @@ fn a_worker_stopped_and_resumed_keeps_waiting_until_sigint() {
 
 #[test]
 fn bad_worker_options_are_refused() {
+    let _one_at_a_time = serial();
     let iox = Iox::new("badopts");
     for (args, needle) in [
         (vec!["run", "--workers", "two"], "--workers"),
@@ -440,6 +461,7 @@ fn bad_worker_options_are_refused() {
 
 #[test]
 fn bench_compares_the_modes_and_their_results_agree() {
+    let _one_at_a_time = serial();
     let iox = Iox::new("bench");
     let out = iox.lander(&[
         "bench",
@@ -513,6 +535,7 @@ fn bench_compares_the_modes_and_their_results_agree() {
 /// trial's generation, not the same work counted again.
 #[test]
 fn bench_steps_trials_in_flight_together_and_their_results_agree() {
+    let _one_at_a_time = serial();
     let iox = Iox::new("bench_in_flight");
     let bench = |in_flight: &str| {
         json_out(&iox.lander(&[
@@ -559,6 +582,7 @@ fn bench_steps_trials_in_flight_together_and_their_results_agree() {
 
 #[test]
 fn stress_kills_workers_and_loses_nothing() {
+    let _one_at_a_time = serial();
     let iox = Iox::new("stress");
     let out = iox.lander(&[
         "bench",
@@ -583,6 +607,7 @@ fn stress_kills_workers_and_loses_nothing() {
 
 #[test]
 fn qlearning_over_workers_matches_in_process_even_when_its_worker_dies() {
+    let _one_at_a_time = serial();
     let iox = Iox::new("qlearn");
     // Long enough (about half a second here) to be killed in the middle.
     let args = ["--method", "qlearning", "--episodes", "16000", "--json"];
@@ -674,6 +699,7 @@ fn workers_placement(iox: &Iox, extra: &[&str]) -> Vec<(String, u32)> {
 
 #[test]
 fn spawned_workers_get_a_cpu_each_and_the_batch_class() {
+    let _one_at_a_time = serial();
     let iox = Iox::new("placement");
     let everywhere = cpus_of("self");
     let pinned = workers_placement(&iox, &[]);
