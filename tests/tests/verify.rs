@@ -1,7 +1,6 @@
 //! `--verify`: a worker that answers well-formed but wrong fitness is
-//! caught by the in-process check of a sample of its chunks, dropped for
-//! good, and its chunks flown again, so the run's results are the same as
-//! in-process. Real processes: a coordinator and two attached iceoryx2
+//! caught by the in-process check of its chunks, dropped for good, and its
+//! chunks flown again, so the run's results are the same as in-process. Real processes: a coordinator and two attached iceoryx2
 //! workers, one of them started with the hidden `--lie`.
 
 use lander_tests::{json_out, lander, stderr, without_wall_time, Iox};
@@ -31,8 +30,11 @@ fn a_lying_worker_is_caught_dropped_and_its_work_done_again() {
         "2",
         "--run-id",
         &run_id,
+        // Every answer checked: at a lower rate a liar's unsampled answers
+        // of the generations before it is caught stand, and the results
+        // may differ (docs/reliability.md).
         "--verify",
-        "0.2",
+        "1",
     ]);
     let coordinator = iox
         .command("lander")
