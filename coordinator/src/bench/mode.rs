@@ -153,12 +153,7 @@ impl Mode {
     /// timings.
     pub fn new(kind: ModeKind, mut evaluator: Box<dyn Measured>) -> Mode {
         evaluator.record_timings();
-        Mode {
-            kind,
-            evaluator,
-            tally: Tally::new(),
-            hasher: DefaultHasher::new(),
-        }
+        Mode::untimed(kind, evaluator)
     }
 
     /// A mode that keeps no chunk timings, for runs too long to keep one
