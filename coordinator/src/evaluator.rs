@@ -92,8 +92,8 @@ pub trait Evaluator {
     /// Runs `work` with this evaluator on one of its own threads, where it
     /// has any. A loop of evaluations and breeding then runs where its
     /// work runs: handing each step to the threads and back costs two
-    /// wake-ups, and on 2 cores those were a quarter of a one-thread
-    /// experiment's wall time. An evaluator without threads of its own
+    /// wake-ups, and on 2 cores a one-thread experiment spent up to a fifth
+    /// of its wall time off the CPU waiting for them. An evaluator without threads of its own
     /// just calls `work`.
     fn drive(&mut self, work: &mut (dyn FnMut(&mut dyn Evaluator) + Send));
 

@@ -68,7 +68,7 @@ pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
         .collect();
 
     let bars = MultiProgress::new();
-    let overall = bars.add(ProgressBar::new(trials(&exp).len() as u64));
+    let overall = bars.add(ProgressBar::new(exp.trial_count()));
     overall.set_style(style(
         "trials [{bar:30}] {pos}/{len} ({elapsed}, eta {eta})",
     ));

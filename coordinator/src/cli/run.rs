@@ -225,16 +225,14 @@ fn evolve(
     let wall_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     drop(evaluator);
-    let cfg = cfg.clone();
-    let out = out.to_path_buf();
     let best_path = out.join("best.json");
-    write_json(&best_path, &BestRecord::new(&cfg, &result))?;
+    write_json(&best_path, &BestRecord::new(cfg, &result))?;
     // The run is over; nothing is left to resume.
     let saved = out.join(checkpoint::FILE);
     if saved.exists() {
         std::fs::remove_file(&saved).with_context(|| format!("removing {}", saved.display()))?;
     }
-    let summary = RunSummary::new(&cfg, &result, wall_s);
+    let summary = RunSummary::new(cfg, &result, wall_s);
     if args.json {
         println!("{}", serde_json::to_string(&summary)?);
     } else {

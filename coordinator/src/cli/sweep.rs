@@ -80,7 +80,7 @@ pub fn sweep(args: SweepArgs, stop: &Stop) -> anyhow::Result<()> {
     let total: usize = sweep
         .settings
         .iter()
-        .map(|s| s.experiment.methods.len() * s.experiment.trials as usize)
+        .map(|s| s.experiment.trial_count() as usize)
         .sum();
     let done = total - plan.trials();
 
@@ -160,7 +160,7 @@ impl Bars<'_> {
             return;
         }
         let s = &self.sweep.settings[setting];
-        let len = s.experiment.methods.len() as u64 * s.experiment.trials;
+        let len = s.experiment.trial_count();
         let bar = self
             .bars
             .insert(1 + self.settings.len(), ProgressBar::new(len));
@@ -218,8 +218,7 @@ impl Progress<usize> for Bars<'_> {
                 .map_err(|e| ExperimentError::Store(e.to_string()))?;
             self.records[setting].push(record.clone());
             self.overall.inc(1);
-            let s = &self.sweep.settings[setting].experiment;
-            let whole = s.methods.len() * s.trials as usize;
+            let whole = self.sweep.settings[setting].experiment.trial_count() as usize;
             let finished = self.records[setting].len();
             if let Some(bar) = self.settings.get(&setting) {
                 bar.set_position(finished as u64);

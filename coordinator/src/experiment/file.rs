@@ -127,6 +127,11 @@ impl Experiment {
         }
     }
 
+    /// Trials in all: `trials` of each method.
+    pub fn trial_count(&self) -> u64 {
+        self.methods.len() as u64 * self.trials
+    }
+
     /// The trial Figure 4 shows.
     pub fn shown_trial(&self) -> u64 {
         self.figure_trial.min(self.trials)

@@ -36,6 +36,13 @@ pub fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<PathBuf, OutputErro
     Ok(path)
 }
 
+/// Writes a plot as `dir/stem.svg` and `dir/stem.png`.
+pub fn write_plot(dir: &Path, stem: &str, plot: &Plot) -> Result<(), OutputError> {
+    write(dir, &format!("{stem}.svg"), plot.svg.as_bytes())?;
+    write(dir, &format!("{stem}.png"), &plot.png)?;
+    Ok(())
+}
+
 /// One row of `trials.csv`; a column that does not apply to a method is
 /// empty.
 #[derive(Serialize)]
@@ -168,8 +175,7 @@ pub fn write_outputs(
     let mut shown = Vec::new();
     for (stem, caption, plot) in figures(exp, records) {
         let plot = plot.map_err(fail(&dir.join(format!("{stem}.svg"))))?;
-        write(dir, &format!("{stem}.svg"), plot.svg.as_bytes())?;
-        write(dir, &format!("{stem}.png"), &plot.png)?;
+        write_plot(dir, &stem, &plot)?;
         shown.push(Figure {
             caption,
             svg: plot.svg,

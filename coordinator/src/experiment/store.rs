@@ -72,17 +72,12 @@ impl Store {
     }
 
     fn check_same(&self, definition: &Path, exp: &Experiment) -> Result<(), StoreError> {
-        let text = std::fs::read_to_string(definition).map_err(io(definition))?;
-        let stored: serde_json::Value =
-            serde_json::from_str(&text).map_err(|e| StoreError::Io {
-                path: definition.to_path_buf(),
-                message: e.to_string(),
-            })?;
-        let current = serde_json::to_value(exp).map_err(|e| StoreError::Io {
+        let fail = |message| StoreError::Io {
             path: definition.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        match first_difference(&stored, &current, "") {
+            message,
+        };
+        let current = serde_json::to_value(exp).map_err(|e| fail(e.to_string()))?;
+        match difference_from_file(definition, &current).map_err(fail)? {
             None => Ok(()),
             Some(field) => Err(StoreError::Different {
                 dir: self.dir.clone(),
@@ -133,6 +128,18 @@ impl Store {
         }
         Ok(records)
     }
+}
+
+/// The first field where the JSON in the file at `path` differs from
+/// `current`, for a folder's `--resume` check; an unreadable or malformed
+/// file is an error.
+pub(crate) fn difference_from_file(
+    path: &Path,
+    current: &serde_json::Value,
+) -> Result<Option<String>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
+    let stored: serde_json::Value = serde_json::from_str(&text).map_err(|e| e.to_string())?;
+    Ok(first_difference(&stored, current, ""))
 }
 
 /// The dotted path of the first field where two JSON values differ.

@@ -5,14 +5,13 @@
 
 use super::file::{plain, Sweep};
 use super::store::SweepStore;
-use crate::experiment::outputs::{ordered, write, write_outputs, OutputError};
+use crate::experiment::outputs::{ordered, write, write_outputs, write_plot, OutputError};
 use lander_report::model::TrialRecord;
 use lander_report::page::Figure;
 use lander_report::plots::{generations_against, heatmap, share_against, Plot, PlotError};
 use lander_report::summary::Summary;
 use lander_report::sweep::{sweep_summary, GridInput, SettingInput, SweepSummary};
 use lander_report::sweep_page::sweep_html;
-use std::path::Path;
 
 /// Writes every setting's outputs and the sweep's, and returns the sweep's
 /// table. `records[s]` are setting `s`'s records.
@@ -78,7 +77,7 @@ pub fn write_sweep_outputs(
                 path: dir.join(format!("{stem}.svg")),
                 message: e.to_string(),
             })?;
-            save_plot(dir, &stem, &plot)?;
+            write_plot(dir, &stem, &plot)?;
             figures.push(Figure {
                 caption: caption(&grid.name, &grid.keys, what),
                 svg: plot.svg,
@@ -115,12 +114,6 @@ fn caption(grid: &str, keys: &[String], what: &str) -> String {
             "Grid {grid}: share of pairs in which the guided GA needed fewer generations, against {against}, with 95% bootstrap intervals"
         ),
     }
-}
-
-fn save_plot(dir: &Path, stem: &str, plot: &Plot) -> Result<(), OutputError> {
-    write(dir, &format!("{stem}.svg"), plot.svg.as_bytes())?;
-    write(dir, &format!("{stem}.png"), &plot.png)?;
-    Ok(())
 }
 
 /// A TOML value as JSON: numbers stay numbers, so plots can place them.

@@ -4,7 +4,7 @@
 //! every tool that reads an experiment folder reads a setting's.
 
 use super::file::Sweep;
-use crate::experiment::store::first_difference;
+use crate::experiment::store::difference_from_file;
 use crate::experiment::{Store, StoreError};
 use crate::run_files::write_json;
 use std::path::{Path, PathBuf};
@@ -85,13 +85,11 @@ fn check_same(
     definition: &Path,
     fresh: &serde_json::Value,
 ) -> Result<(), SweepStoreError> {
-    let io = |message: String| SweepStoreError::Io {
+    let found = difference_from_file(definition, fresh).map_err(|message| SweepStoreError::Io {
         path: definition.to_path_buf(),
         message,
-    };
-    let text = std::fs::read_to_string(definition).map_err(|e| io(e.to_string()))?;
-    let stored: serde_json::Value = serde_json::from_str(&text).map_err(|e| io(e.to_string()))?;
-    match first_difference(&stored, fresh, "") {
+    })?;
+    match found {
         None => Ok(()),
         Some(field) => Err(SweepStoreError::Different {
             dir: dir.to_path_buf(),
