@@ -3,9 +3,11 @@
 # coordinator reached over zenoh, and waits for them.
 #
 #   start-workers.sh --run ID --connect ENDPOINT [-n N] [--credentials FILE]
-#                    [--zenoh-config FILE] [-- EXTRA-WORKER-FLAGS...]
+#                    [--zenoh-config FILE] [--metrics HOST:PORT]
+#                    [-- EXTRA-WORKER-FLAGS...]
 #
-# N defaults to the number of cores (nproc). The worker binary is
+# N defaults to the number of cores (nproc). With --metrics, worker i of N
+# serves Prometheus metrics at HOST:PORT+i-1 (deploy/prometheus/). The worker binary is
 # $LANDER_WORKER if set, else ../target/release/lander-worker beside this
 # script, else lander-worker on PATH. SIGTERM and SIGINT are passed on to
 # every worker (as SIGTERM); the script then waits for them all. It exits 0
@@ -22,13 +24,14 @@ fi
 
 usage() {
     cat >&2 <<USAGE
-usage: $me --run ID --connect ENDPOINT [-n N] [--credentials FILE] [--zenoh-config FILE] [-- WORKER-FLAGS...]
+usage: $me --run ID --connect ENDPOINT [-n N] [--credentials FILE] [--zenoh-config FILE] [--metrics HOST:PORT] [-- WORKER-FLAGS...]
 
   --run ID              the run to serve, as printed by 'lander run --attach --run-id ID'
   --connect ENDPOINT    the coordinator (or a zenoh router), e.g. tcp/10.0.0.5:7447 or tls/10.0.0.5:7447
   -n N                  how many workers to start [default: nproc = $(nproc)]
   --credentials FILE    a 'user:password' file, for a coordinator started with --users
   --zenoh-config FILE   a zenoh JSON5 configuration, e.g. for TLS (deploy/zenoh/worker-tls.json5)
+  --metrics HOST:PORT   worker i serves Prometheus metrics at HOST:PORT+i-1
   -- WORKER-FLAGS...    anything else is passed to every lander-worker (e.g. --quiet)
 
 The worker binary is \$LANDER_WORKER, else ../target/release/lander-worker beside
@@ -42,11 +45,11 @@ die_usage() {
     exit 2
 }
 
-run="" connect="" n="" credentials="" zenoh_config=""
+run="" connect="" n="" credentials="" zenoh_config="" metrics=""
 extra=()
 while (($# > 0)); do
     case "$1" in
-        --run | --connect | -n | --credentials | --zenoh-config)
+        --run | --connect | -n | --credentials | --zenoh-config | --metrics)
             (($# >= 2)) || die_usage "$1 needs a value"
             case "$1" in
                 --run) run=$2 ;;
@@ -54,16 +57,18 @@ while (($# > 0)); do
                 -n) n=$2 ;;
                 --credentials) credentials=$2 ;;
                 --zenoh-config) zenoh_config=$2 ;;
+                --metrics) metrics=$2 ;;
             esac
             shift 2
             ;;
-        --run=* | --connect=* | --credentials=* | --zenoh-config=*)
+        --run=* | --connect=* | --credentials=* | --zenoh-config=* | --metrics=*)
             value=${1#*=}
             case "$1" in
                 --run=*) run=$value ;;
                 --connect=*) connect=$value ;;
                 --credentials=*) credentials=$value ;;
                 --zenoh-config=*) zenoh_config=$value ;;
+                --metrics=*) metrics=$value ;;
             esac
             shift
             ;;
@@ -86,6 +91,13 @@ if [[ -z $n ]]; then
     n=$(nproc)
 fi
 [[ $n =~ ^[1-9][0-9]*$ ]] || die_usage "-n must be a positive whole number (got '$n')"
+metrics_host="" metrics_port=""
+if [[ -n $metrics ]]; then
+    [[ $metrics =~ ^(.+):([0-9]+)$ ]] || die_usage "--metrics must be HOST:PORT (got '$metrics')"
+    metrics_host=${BASH_REMATCH[1]} metrics_port=${BASH_REMATCH[2]}
+    ((metrics_port >= 1 && metrics_port + n - 1 <= 65535)) ||
+        die_usage "--metrics ports $metrics_port to $((metrics_port + n - 1)) are not all valid ports"
+fi
 for file in "$credentials" "$zenoh_config"; do
     if [[ -n $file && ! -r $file ]]; then
         die_usage "cannot read '$file'"
@@ -122,7 +134,9 @@ stop() {
 trap stop TERM INT
 
 for ((i = 1; i <= n; i++)); do
-    "$worker" "${args[@]}" &
+    own=()
+    [[ -z $metrics ]] || own=(--metrics "$metrics_host:$((metrics_port + i - 1))")
+    "$worker" "${args[@]}" "${own[@]}" &
     pids+=($!)
 done
 echo "$me: started $n worker(s) of $worker for run $run at $connect: ${pids[*]}" >&2

@@ -39,7 +39,7 @@ fn worker_pool() -> IpcPool {
         verify: 0.0,
         stop: Default::default(),
     };
-    let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("{m}"))).expect("pool starts");
+    let mut pool = IpcPool::start(opts, Default::default()).expect("pool starts");
     pool.wait_for_workers(1, Duration::from_secs(20))
         .expect("the worker announces itself");
     pool

@@ -1,6 +1,6 @@
 //! `lander`: the command line. Each subcommand lives in `cli/`; this file
-//! only parses arguments, handles SIGINT and SIGTERM, and turns errors into
-//! a message and an exit code.
+//! only parses arguments, installs the log, handles SIGINT and SIGTERM,
+//! and turns errors into a message and an exit code.
 
 mod cli;
 
@@ -10,15 +10,19 @@ use std::process::ExitCode;
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
+    if let Err(e) = lander_telemetry::log::init("lander", args.log_format, false) {
+        eprintln!("lander: error: {e}");
+        return ExitCode::FAILURE;
+    }
     let stop = Stop::new();
     if let Err(e) = stop_on_signals(&stop) {
-        eprintln!("error: cannot handle SIGINT and SIGTERM: {e}");
+        tracing::error!("cannot handle SIGINT and SIGTERM: {e}");
         return ExitCode::FAILURE;
     }
     match cli::dispatch(args, &stop) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            tracing::error!("{e:#}");
             // 128 + SIGINT, as a shell reports a process Ctrl-C stopped.
             ExitCode::from(if stop.asked() { 130 } else { 1 })
         }

@@ -94,8 +94,9 @@ impl<'a> BestRecord<'a> {
 /// Every file `lander run` writes into its folder, for any method (the
 /// GA's log and best lander, Q(λ)'s episodes and summary), and keys its
 /// first JSON object (the whole file, or a log's first line) always has.
-const RUN_OUTPUTS: [(&str, &[&str]); 4] = [
+const RUN_OUTPUTS: [(&str, &[&str]); 5] = [
     ("generations.jsonl", &["index", "best", "mean"]),
+    ("events.jsonl", &["time", "run", "event"]),
     ("best.json", &["method", "seed", "trial", "genome"]),
     ("episodes.jsonl", &["episode", "return", "epsilon"]),
     ("summary.json", &["method", "seed", "trial", "x0", "pad_x"]),

@@ -3,9 +3,18 @@
 //! host's monotonic clock, in which workers stamp their results and the
 //! pool its requests and answers; a thread's CPU time, which `lander
 //! bench` reports; and this process's memory and open descriptors, which
-//! a soak watches.
+//! a soak watches; and its name, which a worker tells its coordinator.
 
 use std::time::Duration;
+
+/// This host's name, as the kernel has it; `unknown` if it cannot be read.
+pub fn name() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|s| s.trim().to_string())
+        .ok()
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "unknown".into())
+}
 
 /// The CPUs this process may run on, in order; empty if unknown.
 pub fn allowed_cpus() -> Vec<usize> {

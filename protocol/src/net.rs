@@ -282,7 +282,7 @@ pub fn strangers_warning(cfg: &Config, then_can: &str, remedy: &str) -> Option<S
     let open = open_to_strangers(cfg);
     (!open.is_empty()).then(|| {
         format!(
-            "warning: listening on {} without authentication: anyone who can reach it \
+            "listening on {} without authentication: anyone who can reach it \
              can {then_can}; {remedy}",
             open.join(", ")
         )
@@ -315,18 +315,25 @@ impl RunKeys {
     }
 
     /// A worker's liveliness token: its id, protocol version and pid.
-    pub fn alive(&self, id: u64, version: u32, pid: u32) -> String {
-        format!("lander/{}/alive/{id:016x}/{version}/{pid}", self.run)
+    pub fn alive(&self, id: u64, version: u32, pid: u32, host: &str) -> String {
+        format!(
+            "lander/{}/alive/{id:016x}/{version}/{pid}/{}",
+            self.run,
+            key_safe(host)
+        )
     }
 
-    /// Reads id, version and pid back from a token's key.
-    pub fn parse_alive(&self, key: &str) -> Option<(u64, u32, u32)> {
+    /// Reads id, version, pid and host back from a token's key. A token
+    /// without a host (from a build before hosts were told) reads as host
+    /// `""`, so that such a worker is still refused by its version.
+    pub fn parse_alive(&self, key: &str) -> Option<(u64, u32, u32, String)> {
         let rest = key.strip_prefix(&format!("lander/{}/alive/", self.run))?;
         let mut parts = rest.split('/');
         let id = u64::from_str_radix(parts.next()?, 16).ok()?;
         let version = parts.next()?.parse().ok()?;
         let pid = parts.next()?.parse().ok()?;
-        parts.next().is_none().then_some((id, version, pid))
+        let host = parts.next().unwrap_or_default().to_string();
+        parts.next().is_none().then_some((id, version, pid, host))
     }
 
     /// The coordinator's liveliness token: workers leave when it goes.
@@ -345,19 +352,48 @@ impl RunKeys {
     }
 }
 
+/// `name` as one chunk of a zenoh key: characters that mean something in
+/// a key expression (`/`, `*`, `$`, `?`, `#`) and anything outside
+/// `[A-Za-z0-9._-]` become `_`; an empty name is `unknown`.
+fn key_safe(name: &str) -> String {
+    if name.is_empty() {
+        return "unknown".into();
+    }
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "._-".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn tokens_carry_id_version_and_pid() {
+    fn tokens_carry_id_version_pid_and_host() {
         let keys = RunKeys::new("r1");
-        let key = keys.alive(0xabc, 2, 77);
-        assert_eq!(key, "lander/r1/alive/0000000000000abc/2/77");
-        assert_eq!(keys.parse_alive(&key), Some((0xabc, 2, 77)));
+        let key = keys.alive(0xabc, 2, 77, "moon-1.local");
+        assert_eq!(key, "lander/r1/alive/0000000000000abc/2/77/moon-1.local");
+        assert_eq!(
+            keys.parse_alive(&key),
+            Some((0xabc, 2, 77, "moon-1.local".into()))
+        );
+        assert_eq!(
+            keys.alive(1, 2, 3, "a/b*c"),
+            "lander/r1/alive/0000000000000001/2/3/a_b_c"
+        );
+        assert_eq!(
+            keys.parse_alive("lander/r1/alive/1/2/3"),
+            Some((1, 2, 3, String::new()))
+        );
         assert_eq!(keys.parse_alive("lander/r2/alive/1/2/3"), None);
         assert_eq!(keys.parse_alive("lander/r1/alive/zz/2/3"), None);
-        assert_eq!(keys.parse_alive("lander/r1/alive/1/2/3/4"), None);
+        assert_eq!(keys.parse_alive("lander/r1/alive/1/2/3/h/5"), None);
     }
 
     #[test]

@@ -227,3 +227,44 @@ pub fn wait_until(secs: u64, mut ready: impl FnMut() -> bool) -> bool {
     }
     false
 }
+
+/// A loopback port free right now (the OS picks it; it is released for the
+/// caller to bind).
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .expect("a free loopback port")
+        .port()
+}
+
+/// The body of `GET http://addr/path`, or why there is none (no answer
+/// yet, or a status other than 200).
+pub fn http_get(addr: &str, path: &str) -> Result<String, String> {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(addr).map_err(|e| e.to_string())?;
+    s.set_read_timeout(Some(std::time::Duration::from_secs(10)))
+        .map_err(|e| e.to_string())?;
+    write!(s, "GET {path} HTTP/1.0\r\nHost: {addr}\r\n\r\n").map_err(|e| e.to_string())?;
+    let mut reply = String::new();
+    s.read_to_string(&mut reply).map_err(|e| e.to_string())?;
+    let (head, body) = reply.split_once("\r\n\r\n").ok_or("no HTTP reply")?;
+    let status = head.split(' ').nth(1).unwrap_or_default();
+    if status != "200" {
+        return Err(format!("status {status}: {body}"));
+    }
+    Ok(body.to_string())
+}
+
+/// The events of a run folder's `events.jsonl`.
+pub fn events(dir: &Path) -> Vec<Value> {
+    json_lines(&dir.join("events.jsonl"))
+}
+
+/// The id of the worker with process id `pid`, as its `worker_joined`
+/// event gave it.
+pub fn worker_id_of(events: &[Value], pid: u32) -> Option<String> {
+    events
+        .iter()
+        .find(|e| e["event"] == "worker_joined" && e["pid"] == pid)
+        .and_then(|e| e["worker"].as_str().map(str::to_string))
+}

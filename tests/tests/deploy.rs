@@ -344,6 +344,35 @@ fn start_workers_serves_a_run_with_make_users_credentials() {
 }
 
 #[test]
+fn start_workers_serves_each_workers_metrics_for_the_scrape_config() {
+    let config = deploy("prometheus/prometheus.yml");
+    let checked = Command::new("promtool")
+        .args(["check", "config"])
+        .arg(&config)
+        .output()
+        .expect("Debian's promtool is installed (.ci/run installs it)");
+    assert!(checked.status.success(), "{}", stderr(&checked));
+    let dir = tempfile::tempdir().unwrap();
+    let nowhere = format!("tcp/127.0.0.1:{}", port(1));
+    let first = format!("127.0.0.1:{}", port(8));
+    let run_id = format!("metrics{}", std::process::id());
+    let workers = two_workers(dir.path(), &run_id, &nowhere, &["--metrics", &first]);
+    // Waiting for a coordinator, each worker already serves its metrics,
+    // on consecutive ports.
+    for k in [8, 9] {
+        let addr = format!("127.0.0.1:{}", port(k));
+        assert!(
+            wait_until(30, || lander_tests::http_get(&addr, "/metrics")
+                .is_ok_and(|t| t.contains("lander_worker_jobs_total 0"))),
+            "no worker metrics at {addr}: {}",
+            workers.stderr()
+        );
+    }
+    let out = workers.stop("TERM");
+    assert!(out.status.success(), "{}", stderr(&out));
+}
+
+#[test]
 fn start_workers_checks_its_arguments_and_passes_on_signals() {
     let dir = tempfile::tempdir().unwrap();
     let dir = dir.path();
@@ -366,6 +395,30 @@ fn start_workers_checks_its_arguments_and_passes_on_signals() {
             "-n must be a positive whole number",
         ),
         (&["--run", "x", "--bogus"][..], "unknown argument"),
+        (
+            &[
+                "--run",
+                "x",
+                "--connect",
+                "tcp/127.0.0.1:1",
+                "--metrics",
+                "9464",
+            ][..],
+            "--metrics must be HOST:PORT",
+        ),
+        (
+            &[
+                "--run",
+                "x",
+                "--connect",
+                "tcp/127.0.0.1:1",
+                "-n",
+                "2",
+                "--metrics",
+                "h:65535",
+            ][..],
+            "are not all valid ports",
+        ),
         (
             &[
                 "--run",

@@ -3,8 +3,8 @@
 //! hang, or come and go.
 
 use lander_tests::{
-    interrupt, json_lines, json_out, lines_in, signal, stderr, wait_until, without_wall_time,
-    worker_children, Iox,
+    events, interrupt, json_lines, json_out, lines_in, signal, stderr, wait_until,
+    without_wall_time, worker_children, worker_id_of, Iox,
 };
 use serde_json::Value;
 use std::fs;
@@ -215,8 +215,14 @@ fn spawned_workers_spin_only_with_a_cpu_to_spare() {
 
 /// Runs LONG over two spawned workers, doing `disturb` to them once 40
 /// generations are written, and checks the results match an undisturbed
-/// in-process run.
-fn survives(test: &str, extra: &[&str], reported: &str, disturb: impl Fn(&[u32])) {
+/// in-process run, the pool said `reported`, and `events.jsonl` holds
+/// event `event` for each worker `disturb` returns, under its id.
+fn survives(
+    test: &str,
+    extra: &[&str],
+    (reported, event): (&str, &str),
+    disturb: impl Fn(&[u32]) -> Vec<u32>,
+) {
     let iox = Iox::new(test);
     let dir = tempfile::tempdir().unwrap();
     let cfg = never_lands(dir.path());
@@ -229,7 +235,7 @@ fn survives(test: &str, extra: &[&str], reported: &str, disturb: impl Fn(&[u32])
     args.extend_from_slice(extra);
     let (child, workers) = under_way(&iox, dir.path(), &args, 40);
     let log = dir.path().join("generations.jsonl");
-    disturb(&workers);
+    let disturbed = disturb(&workers);
     let out = child.wait_with_output().unwrap();
     assert!(out.status.success(), "{}", stderr(&out));
     let got = (without_wall_time(json_out(&out)), fs::read(&log).unwrap());
@@ -244,30 +250,58 @@ fn survives(test: &str, extra: &[&str], reported: &str, disturb: impl Fn(&[u32])
         "the pool did not report {reported:?}: {}",
         stderr(&out)
     );
+    let events = events(dir.path());
+    for pid in disturbed {
+        let id = worker_id_of(&events, pid).expect("the worker's joining was recorded");
+        assert!(
+            events
+                .iter()
+                .any(|e| e["event"] == event && e["worker"] == id.as_str() && e["pid"] == pid),
+            "no {event} event for worker {id} (pid {pid}): {events:?}"
+        );
+    }
+    assert_eq!(
+        events.first().map(|e| &e["event"]),
+        Some(&"run_started".into())
+    );
+    assert_eq!(
+        events.last().map(|e| &e["event"]),
+        Some(&"run_finished".into())
+    );
 }
 
 #[test]
 fn a_worker_killed_mid_run_loses_no_work() {
     let _one_at_a_time = serial();
-    survives("kill_one", &[], "exited", |w| signal(w[0], "KILL"));
+    survives("kill_one", &[], ("exited", "worker_died"), |w| {
+        signal(w[0], "KILL");
+        vec![w[0]]
+    });
 }
 
 #[test]
 fn every_worker_killed_once_loses_no_work() {
     let _one_at_a_time = serial();
-    survives("kill_all", &[], "exited", |w| {
+    survives("kill_all", &[], ("exited", "worker_died"), |w| {
         for &pid in w {
             signal(pid, "KILL");
         }
+        w.to_vec()
     });
 }
 
 #[test]
 fn a_hung_worker_misses_its_deadline_and_loses_no_work() {
     let _one_at_a_time = serial();
-    survives("hang", &["--deadline", "1"], "missed its deadline", |w| {
-        signal(w[0], "STOP")
-    });
+    survives(
+        "hang",
+        &["--deadline", "1"],
+        ("missed its deadline", "worker_timed_out"),
+        |w| {
+            signal(w[0], "STOP");
+            vec![w[0]]
+        },
+    );
 }
 
 #[test]

@@ -4,6 +4,7 @@
 //! workers, one of them started with the hidden `--lie`.
 
 use lander_tests::{json_out, lander, stderr, without_wall_time, Iox};
+use serde_json::Value;
 use std::fs;
 use std::process::Stdio;
 
@@ -70,18 +71,27 @@ fn a_lying_worker_is_caught_dropped_and_its_work_done_again() {
         fs::read(reference.join("best.json")).unwrap()
     );
     assert!(
-        said.contains(&format!("refusing a result from worker {liar_id}"))
+        said.contains(&format!("refusing worker {liar_id}"))
             && said.contains("differs from this host's (--verify)"),
         "{said}"
     );
     assert!(
-        said.contains(&format!("worker {liar_id} is dropped for a refused answer")),
+        !said.contains(&format!("refusing worker {honest_id}")),
         "{said}"
     );
-    assert!(
-        !said.contains(&format!("worker {honest_id} is dropped")),
-        "{said}"
-    );
+    // events.jsonl names the liar, and only the liar, as refused, and
+    // its chunks as flown again.
+    let events = lander_tests::events(&out);
+    let refused: Vec<&Value> = events
+        .iter()
+        .filter(|e| e["event"] == "worker_refused")
+        .collect();
+    assert_eq!(refused.len(), 1, "{events:?}");
+    assert_eq!(refused[0]["worker"], liar_id);
+    assert!(refused[0]["why"].as_str().unwrap().contains("(--verify)"));
+    assert!(events.iter().any(|e| e["event"] == "chunks_redispatched"
+        && e["worker"] == liar_id
+        && e["why"] == "refused"));
     // Both workers end: the liar told to leave, the honest one at the end.
     liar.wait().unwrap();
     honest.wait().unwrap();

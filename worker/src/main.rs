@@ -10,6 +10,8 @@ use clap::{Parser, ValueEnum};
 use lander_protocol::iox::check_run_id;
 use lander_protocol::net::NetOptions;
 use lander_protocol::spin::{Spin, MAX_SPIN_US};
+use lander_telemetry::log::LogFormat;
+use lander_telemetry::MetricsServer;
 use serve::{Exit, Note};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -77,6 +79,15 @@ struct Args {
     /// started with --users.
     #[arg(long, value_name = "FILE")]
     credentials: Option<PathBuf>,
+    /// Serve Prometheus metrics at http://ADDR/metrics: jobs, genomes,
+    /// refused frames, busy seconds. ADDR is HOST:PORT, or a PORT on
+    /// loopback.
+    #[arg(long, value_name = "ADDR")]
+    metrics: Option<String>,
+    /// How diagnostics are written to stderr: `text` or `json` (one JSON
+    /// object per line). RUST_LOG filters them.
+    #[arg(long, value_name = "FORMAT", default_value = "text")]
+    log_format: LogFormat,
     /// Testing only: answer every evaluation with a wrong fitness, for
     /// the tests of the coordinator's --verify.
     #[arg(long, hide = true)]
@@ -101,8 +112,14 @@ fn main() -> ExitCode {
     // Before any thread starts, so that every thread inherits both.
     let placed = args.cpu.map(cpu::pin_to).transpose();
     let batch = cpu::run_as_batch_job();
+    let id = args.id.unwrap_or_else(rand::random);
+    let program = format!("lander-worker {id:016x}");
+    if let Err(e) = lander_telemetry::log::init(&program, args.log_format, args.quiet) {
+        eprintln!("{program}: error: {e}");
+        return ExitCode::FAILURE;
+    }
     if let Err(e) = check_run_id(&args.run) {
-        eprintln!("lander-worker: error: --run {e}");
+        tracing::error!("--run {e}");
         return ExitCode::FAILURE;
     }
     if args.transport != TransportArg::Zenoh {
@@ -112,26 +129,35 @@ fn main() -> ExitCode {
             ("--credentials", args.credentials.is_some()),
         ] {
             if given {
-                eprintln!("lander-worker: error: {flag} is for --transport zenoh");
+                tracing::error!("{flag} is for --transport zenoh");
                 return ExitCode::FAILURE;
             }
         }
     }
-    let id = args.id.unwrap_or_else(rand::random);
-    let say = |msg: &str| eprintln!("lander-worker {id:016x}: {msg}");
     if let (Err(e), Some(n)) = (placed, args.cpu) {
-        say(&format!("error: --cpu {n}: cannot run there: {e}"));
+        tracing::error!("--cpu {n}: cannot run there: {e}");
         return ExitCode::FAILURE;
     }
     if let Err(e) = batch {
-        say(&format!(
-            "warning: cannot use the batch scheduling class: {e}"
-        ));
+        tracing::warn!("cannot use the batch scheduling class: {e}");
     }
-    let note = |kind: Note, msg: &str| {
-        if kind == Note::Warning || !args.quiet {
-            say(msg)
+    // Served until the worker exits.
+    let _metrics = match &args.metrics {
+        Some(addr) => {
+            let metrics = serve::count_jobs();
+            match MetricsServer::start(addr, move || metrics.encode()) {
+                Ok(server) => Some(server),
+                Err(e) => {
+                    tracing::error!("{e}");
+                    return ExitCode::FAILURE;
+                }
+            }
         }
+        None => None,
+    };
+    let note = |kind: Note, msg: &str| match kind {
+        Note::Warning => tracing::warn!("{msg}"),
+        Note::Info => tracing::info!("{msg}"),
     };
     let served = match args.transport {
         TransportArg::Iceoryx2 => {
@@ -140,13 +166,13 @@ fn main() -> ExitCode {
         }
         TransportArg::Zenoh => {
             if args.connect.is_empty() && args.zenoh_config.is_none() {
-                say("error: --transport zenoh needs --connect ENDPOINT (or a --zenoh-config)");
+                tracing::error!("--transport zenoh needs --connect ENDPOINT (or a --zenoh-config)");
                 return ExitCode::FAILURE;
             }
             let stop = Arc::new(AtomicBool::new(false));
             for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
                 if let Err(e) = signal_hook::flag::register(signal, stop.clone()) {
-                    say(&format!("error: cannot handle signal {signal}: {e}"));
+                    tracing::error!("cannot handle signal {signal}: {e}");
                     return ExitCode::FAILURE;
                 }
             }
@@ -171,7 +197,7 @@ fn main() -> ExitCode {
             ExitCode::SUCCESS
         }
         Err(e) => {
-            say(&format!("error: {e}"));
+            tracing::error!("{e}");
             ExitCode::FAILURE
         }
     }

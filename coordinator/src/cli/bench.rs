@@ -16,6 +16,7 @@ use lander_model::Method;
 use lander_protocol::iox::MAX_WORKERS;
 use lander_protocol::net::{coordinator_config, NetOptions};
 use lander_protocol::spin::MAX_SPIN_US;
+use lander_telemetry::Telemetry;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -98,6 +99,10 @@ pub struct BenchArgs {
     /// files do not grow (a soak).
     #[arg(long, value_name = "SECONDS", requires = "stress")]
     soak: Option<u64>,
+    /// The worker-process modes count into metrics served here, as
+    /// `lander run --metrics`, to measure what metrics cost.
+    #[command(flatten)]
+    watch: super::watch::WatchArgs,
 }
 
 fn args_for_stress(args: &BenchArgs) -> super::stress::StressArgs {
@@ -140,7 +145,12 @@ fn kinds(args: &BenchArgs) -> anyhow::Result<Vec<ModeKind>> {
 }
 
 /// Starts the evaluator of a mode of `kind`, its workers announced.
-fn evaluator(args: &BenchArgs, kind: ModeKind, stop: &Stop) -> anyhow::Result<Box<dyn Measured>> {
+fn evaluator(
+    args: &BenchArgs,
+    kind: ModeKind,
+    telemetry: &Telemetry,
+    stop: &Stop,
+) -> anyhow::Result<Box<dyn Measured>> {
     Ok(match kind {
         ModeKind::InProcess { threads } => {
             Box::new(InProcess::new(threads)?.stopping_on(stop.clone()))
@@ -148,7 +158,7 @@ fn evaluator(args: &BenchArgs, kind: ModeKind, stop: &Stop) -> anyhow::Result<Bo
         ModeKind::Iceoryx2 { workers } => {
             let id = format!("bench{:08x}", rand::random::<u32>());
             let opts = pool_options_for(args, id, workers, stop)?;
-            let mut pool = IpcPool::start(opts, Box::new(|m| eprintln!("lander: {m}")))?;
+            let mut pool = IpcPool::start(opts, telemetry.clone())?;
             pool.wait_for_workers(workers, Duration::from_secs(20))
                 .context("waiting for the benchmark's workers")?;
             Box::new(pool)
@@ -161,8 +171,7 @@ fn evaluator(args: &BenchArgs, kind: ModeKind, stop: &Stop) -> anyhow::Result<Bo
                 ..NetOptions::default()
             };
             let transport = Zenoh::open(&opts.run_id, coordinator_config(&options)?)?;
-            let say = Box::new(|m: &str| eprintln!("lander: {m}"));
-            let mut pool = Pool::with_transport(transport, opts, say)?;
+            let mut pool = Pool::with_transport(transport, opts, telemetry.clone())?;
             pool.wait_for_workers(workers, Duration::from_secs(20))
                 .context("waiting for the benchmark's zenoh workers")?;
             Box::new(pool)
@@ -218,9 +227,15 @@ pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
     }
     let kinds = kinds(&args)?;
     anyhow::ensure!(!kinds.is_empty(), "--transports named no transport");
+    let watch = args
+        .watch
+        .start(format!("bench{:08x}", rand::random::<u32>()))?;
     let mut modes = Vec::new();
     for kind in kinds {
-        modes.push(Mode::new(kind, evaluator(&args, kind, stop)?));
+        modes.push(Mode::new(
+            kind,
+            evaluator(&args, kind, &watch.telemetry, stop)?,
+        ));
     }
     let plan = Plan {
         rounds: args.rounds,

@@ -3,6 +3,7 @@
 //! trial by trial so that `--resume` can finish an interrupted run.
 
 use super::transport::TransportArgs;
+use super::watch::{trial_label, Watched};
 use anyhow::Context;
 use clap::Args;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
@@ -50,6 +51,17 @@ pub struct ExperimentArgs {
 }
 
 pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
+    let watch = args.transport.watch()?;
+    let result = experiment_watched(&args, &watch, stop);
+    watch.end(&result, stop.asked());
+    result
+}
+
+fn experiment_watched(
+    args: &ExperimentArgs,
+    watch: &super::watch::Watch,
+    stop: &Stop,
+) -> anyhow::Result<()> {
     let mut exp = Experiment::load(&args.file)?;
     if let Some(trials) = args.trials {
         exp.trials = trials;
@@ -60,6 +72,7 @@ pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("results").join(&exp.name));
     let store = Store::open(&out, &exp, args.resume)?;
+    watch.begin(&out, "experiment")?;
     let mut records = store.finished()?;
     let done: HashSet<TrialId> = records.iter().map(TrialId::of).collect();
     let todo: Vec<TrialId> = trials(&exp)
@@ -67,7 +80,7 @@ pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
         .filter(|t| !done.contains(t))
         .collect();
 
-    let bars = MultiProgress::new();
+    let bars = lander_telemetry::log::bars();
     let overall = bars.add(ProgressBar::new(exp.trial_count()));
     overall.set_style(style(
         "trials [{bar:30}] {pos}/{len} ({elapsed}, eta {eta})",
@@ -82,14 +95,21 @@ pub fn experiment(args: ExperimentArgs, stop: &Stop) -> anyhow::Result<()> {
         ));
     }
     let since = Instant::now();
-    let mut backend = args.transport.evaluator(args.threads, &overall, stop)?;
+    let mut backend = args
+        .transport
+        .evaluator(args.threads, &watch.telemetry, stop)?;
     let in_flight = in_flight(args.in_flight, 4, args.transport.workers, args.threads)?;
-    let mut progress = Bars {
-        bars: &bars,
-        overall: &overall,
-        running: HashMap::new(),
-        store: &store,
-        records: &mut records,
+    let mut progress = Watched {
+        inner: Bars {
+            bars,
+            overall: &overall,
+            running: HashMap::new(),
+            store: &store,
+            records: &mut records,
+        },
+        telemetry: &watch.telemetry,
+        label: &|_, cfg: &RunConfig| trial_label(None, cfg),
+        labels: HashMap::new(),
     };
     let todo = experiment_tasks(&exp, &todo);
     run(&todo, backend.as_mut(), in_flight, &mut progress).context("the experiment stopped")?;
@@ -135,7 +155,7 @@ pub(super) fn say_busy(backend: &dyn Backend, workers: usize, since: Instant) {
         return;
     };
     let wall = since.elapsed().as_secs_f64();
-    eprintln!(
+    tracing::info!(
         "{workers} workers were busy {:.1}% of {wall:.1} s",
         100.0 * busy.as_secs_f64() / (workers as f64 * wall)
     );

@@ -48,7 +48,8 @@ pub fn learn(
     let mut log = BufWriter::new(
         File::create(&log_path).with_context(|| format!("creating {}", log_path.display()))?,
     );
-    let bar = ProgressBar::new(u64::from(cfg.qlearning.episodes));
+    let bar =
+        lander_telemetry::log::bars().add(ProgressBar::new(u64::from(cfg.qlearning.episodes)));
     bar.set_style(
         ProgressStyle::with_template("qlearning [{bar:30}] episode {pos}/{len} {msg} ({per_sec})")
             .unwrap_or_else(|_| ProgressStyle::default_bar())

@@ -10,10 +10,12 @@ mod run;
 mod stress;
 mod sweep;
 mod transport;
+mod watch;
 
 use clap::{Parser, Subcommand};
 use lander_coordinator::stop::Stop;
 use lander_model::Method;
+use lander_telemetry::log::LogFormat;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -26,6 +28,10 @@ use lander_model::Method;
 pub struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// How diagnostics are written to stderr: `text` for people, `json`
+    /// for one JSON object per line. RUST_LOG filters them.
+    #[arg(long, global = true, value_name = "FORMAT", default_value = "text")]
+    pub log_format: LogFormat,
 }
 
 #[derive(Subcommand, Debug)]

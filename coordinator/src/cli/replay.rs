@@ -213,8 +213,8 @@ fn recorded_config(
         ),
         (None, Some(file)) => Ok(RunConfig::load(file)?),
         (None, None) => {
-            eprintln!(
-                "note: {} records no configuration (an older run); replaying in the default \
+            tracing::warn!(
+                "{} records no configuration (an older run); replaying in the default \
                  world, so give --config FILE if the run used one",
                 path.display()
             );

@@ -26,10 +26,6 @@ pub struct RouterArgs {
     users: Option<PathBuf>,
 }
 
-fn say(msg: &str) {
-    eprintln!("lander router: {msg}");
-}
-
 /// Routes until SIGTERM or SIGINT, then closes the session and returns.
 pub fn router(args: RouterArgs) -> anyhow::Result<()> {
     let options = NetOptions {
@@ -50,24 +46,24 @@ pub fn router(args: RouterArgs) -> anyhow::Result<()> {
     let mut signals = Signals::new([SIGTERM, SIGINT]).context("handling SIGTERM and SIGINT")?;
     let then_can = "join the runs it carries";
     if let Some(warning) = strangers_warning(&cfg, then_can, "pass --users or use mutual TLS") {
-        say(&warning);
+        tracing::warn!("{warning}");
     }
     if net::guard_tls(&cfg) {
-        say(net::TLS_NOTE);
+        tracing::info!("{}", net::TLS_NOTE);
     }
     let session = zenoh::open(cfg)
         .wait()
         .map_err(net::fail("opening the router"))?;
-    say(&format!(
-        "{} listening on {}",
+    tracing::info!(
+        "router {} listening on {}",
         session.zid(),
         endpoints.join(", ")
-    ));
+    );
     let signal = signals.forever().next();
-    say(&format!(
-        "stopped by signal {}; exiting",
+    tracing::info!(
+        "router stopped by signal {}; exiting",
         signal.map_or("?".into(), |s| s.to_string())
-    ));
+    );
     session
         .close()
         .wait()

@@ -2,6 +2,7 @@
 //! then holds that run's outputs and nothing of an earlier run's.
 
 use super::transport::TransportArgs;
+use super::watch::{trial_label, Watch};
 use anyhow::{bail, Context};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -100,9 +101,17 @@ impl RunArgs {
 }
 
 pub fn run(args: RunArgs, stop: &Stop) -> anyhow::Result<()> {
-    if let Some(dir) = &args.resume {
-        return resume(&args, dir, stop);
-    }
+    let watch = args.transport.watch()?;
+    let result = match &args.resume {
+        Some(dir) => resume(&args, dir, &watch, stop),
+        None => start(&args, &watch, stop),
+    };
+    watch.end(&result, stop.asked());
+    result
+}
+
+/// A fresh run, in a folder readied for it.
+fn start(args: &RunArgs, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
     let cfg = args.config()?;
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from("runs").join(format!(
@@ -113,21 +122,25 @@ pub fn run(args: RunArgs, stop: &Stop) -> anyhow::Result<()> {
         ))
     });
     if cfg.method == Method::Qlearning {
-        let pool = args.transport.pool(&ProgressBar::hidden(), stop)?;
+        let pool = args.transport.pool(&watch.telemetry, stop)?;
         prepare(&out)?;
+        watch.begin(&out, "run")?;
         return super::learning::learn(&cfg, &out, args.json, pool, stop);
     }
     let bar = progress_bar(cfg.ga.max_generations);
-    let evaluator = args.transport.evaluator(cfg.threads, &bar, stop)?;
+    let evaluator = args
+        .transport
+        .evaluator(cfg.threads, &watch.telemetry, stop)?;
     prepare(&out)?;
+    watch.begin(&out, "run")?;
     let log = GenerationLog::create(&out)?;
     let run = TrialRun::new(&cfg)?;
-    evolve(&args, &cfg, &out, run, log, evaluator, bar)
+    evolve(args, &cfg, &out, run, log, evaluator, bar, watch)
 }
 
 /// `lander run --resume DIR`: the saved run, checked against the flags,
 /// its log cut back to the checkpoint, and on to the end.
-fn resume(args: &RunArgs, dir: &Path, stop: &Stop) -> anyhow::Result<()> {
+fn resume(args: &RunArgs, dir: &Path, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
     let saved = checkpoint::load(dir)?;
     let cfg = args.config_over(saved.config.clone())?;
     if let Some(field) = differs(&saved.config, &cfg) {
@@ -141,10 +154,13 @@ fn resume(args: &RunArgs, dir: &Path, stop: &Stop) -> anyhow::Result<()> {
     let run = TrialRun::resume(&cfg, saved.state)
         .with_context(|| dir.join(checkpoint::FILE).display().to_string())?;
     let bar = progress_bar(cfg.ga.max_generations);
-    let evaluator = args.transport.evaluator(cfg.threads, &bar, stop)?;
+    let evaluator = args
+        .transport
+        .evaluator(cfg.threads, &watch.telemetry, stop)?;
     let log = GenerationLog::resume(dir, index)?;
-    eprintln!("resuming {} after generation {index}", dir.display());
-    evolve(args, &cfg, dir, run, log, evaluator, bar)
+    watch.begin(dir, "run --resume")?;
+    tracing::info!("resuming {} after generation {index}", dir.display());
+    evolve(args, &cfg, dir, run, log, evaluator, bar, watch)
 }
 
 /// The first field where two configurations differ, thread counts aside
@@ -161,6 +177,7 @@ fn differs(saved: &RunConfig, now: &RunConfig) -> Option<String> {
 /// Flies `run` to its end, logging every generation and saving a
 /// checkpoint every `--checkpoint-every` generations and when stopped;
 /// then writes the best lander and the summary.
+#[allow(clippy::too_many_arguments)]
 fn evolve(
     args: &RunArgs,
     cfg: &RunConfig,
@@ -169,7 +186,13 @@ fn evolve(
     mut log: GenerationLog,
     mut evaluator: Box<dyn Backend>,
     bar: ProgressBar,
+    watch: &Watch,
 ) -> anyhow::Result<()> {
+    let metrics = watch.telemetry.metrics();
+    let label = trial_label(None, cfg);
+    if let Some(m) = metrics {
+        m.trial_started(&label);
+    }
     let every = args.checkpoint_every;
     let save = |run: &TrialRun, log: &mut GenerationLog| -> anyhow::Result<()> {
         let Some(state) = run.state() else {
@@ -192,6 +215,9 @@ fn evolve(
     evaluator.drive(&mut |evaluator| {
         outcome = Some(finish_trial(&mut run, evaluator, &mut |g, run| {
             show(&bar, g);
+            if let Some(m) = metrics {
+                m.generation(&label, g.best, g.mean, g.evaluated);
+            }
             log.write(g)?;
             if every > 0 && g.index % every == 0 {
                 save(run, &mut log)?;
@@ -225,6 +251,9 @@ fn evolve(
     let wall_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     drop(evaluator);
+    if let Some(m) = metrics {
+        m.trial_finished(&label);
+    }
     let best_path = out.join("best.json");
     write_json(&best_path, &BestRecord::new(cfg, &result))?;
     // The run is over; nothing is left to resume.
@@ -278,8 +307,8 @@ fn prepare(out: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let removed = clear_run_outputs(out)?;
     if !removed.is_empty() {
-        eprintln!(
-            "note: removed an earlier run's {} from {}",
+        tracing::info!(
+            "removed an earlier run's {} from {}",
             removed.join(", "),
             out.display()
         );
@@ -288,7 +317,7 @@ fn prepare(out: &Path) -> anyhow::Result<()> {
 }
 
 fn progress_bar(max_generations: u64) -> ProgressBar {
-    let bar = ProgressBar::new(max_generations);
+    let bar = lander_telemetry::log::bars().add(ProgressBar::new(max_generations));
     let style = ProgressStyle::with_template(
         "{prefix} [{bar:30}] gen {pos}/{len} {msg} ({per_sec}, {elapsed})",
     )

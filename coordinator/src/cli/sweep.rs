@@ -5,6 +5,7 @@
 
 use super::experiment::{in_flight, say_busy, style};
 use super::transport::TransportArgs;
+use super::watch::{trial_label, Watched};
 use anyhow::Context;
 use clap::Args;
 use indicatif::{MultiProgress, ProgressBar};
@@ -59,6 +60,13 @@ pub struct SweepArgs {
 }
 
 pub fn sweep(args: SweepArgs, stop: &Stop) -> anyhow::Result<()> {
+    let watch = args.transport.watch()?;
+    let result = sweep_watched(&args, &watch, stop);
+    watch.end(&result, stop.asked());
+    result
+}
+
+fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> anyhow::Result<()> {
     let mut sweep = Sweep::load(&args.file, args.allow_large)?;
     if let Some(trials) = args.trials {
         sweep = sweep
@@ -71,6 +79,7 @@ pub fn sweep(args: SweepArgs, stop: &Stop) -> anyhow::Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("results").join(&sweep.base.name));
     let store = SweepStore::open(&out, &sweep, args.resume)?;
+    watch.begin(&out, "sweep")?;
     let mut records = store
         .settings
         .iter()
@@ -84,7 +93,7 @@ pub fn sweep(args: SweepArgs, stop: &Stop) -> anyhow::Result<()> {
         .sum();
     let done = total - plan.trials();
 
-    let bars = MultiProgress::new();
+    let bars = lander_telemetry::log::bars();
     let overall = bars.add(ProgressBar::new(total as u64));
     overall.set_style(style(&format!(
         "sweep of {} settings [{{bar:30}}] {{pos}}/{{len}} trials ({{elapsed}}, eta {{eta}})",
@@ -100,22 +109,34 @@ pub fn sweep(args: SweepArgs, stop: &Stop) -> anyhow::Result<()> {
         ));
     }
     let since = Instant::now();
-    let mut backend = args.transport.evaluator(args.threads, &overall, stop)?;
+    let mut backend = args
+        .transport
+        .evaluator(args.threads, &watch.telemetry, stop)?;
     let in_flight = in_flight(
         args.in_flight,
         IN_FLIGHT_PER_WORKER,
         args.transport.workers,
         args.threads,
     )?;
-    let mut progress = Bars {
-        sweep: &sweep,
-        plan: &plan,
-        bars: &bars,
-        overall: &overall,
-        settings: HashMap::new(),
-        running: HashMap::new(),
-        store: &store,
-        records: &mut records,
+    // A trial that settings share is counted under its first setting.
+    let label = |task: usize, cfg: &RunConfig| {
+        let setting = plan.groups[task][0].setting;
+        trial_label(Some(&sweep.settings[setting].name), cfg)
+    };
+    let mut progress = Watched {
+        inner: Bars {
+            sweep: &sweep,
+            plan: &plan,
+            bars,
+            overall: &overall,
+            settings: HashMap::new(),
+            running: HashMap::new(),
+            store: &store,
+            records: &mut records,
+        },
+        telemetry: &watch.telemetry,
+        label: &label,
+        labels: HashMap::new(),
     };
     lander_coordinator::experiment::run(&plan.tasks, backend.as_mut(), in_flight, &mut progress)
         .with_context(|| {

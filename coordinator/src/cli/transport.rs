@@ -2,16 +2,17 @@
 //! processes it spawns or that attach themselves, over iceoryx2 on this
 //! host or zenoh from any host.
 
+use super::watch::{Watch, WatchArgs};
 use anyhow::Context;
 use clap::{Args, ValueEnum};
-use indicatif::ProgressBar;
 use lander_coordinator::evaluator::{Backend, InProcess};
 use lander_coordinator::pool::zenoh::Zenoh;
-use lander_coordinator::pool::{IpcPool, Pool, PoolOptions, Say, DEPTH};
+use lander_coordinator::pool::{IpcPool, Pool, PoolOptions, DEPTH};
 use lander_coordinator::stop::Stop;
 use lander_protocol::iox::{check_run_id, MAX_WORKERS};
 use lander_protocol::net::{coordinator_config, strangers_warning, NetOptions};
 use lander_protocol::spin::MAX_SPIN_US;
+use lander_telemetry::Telemetry;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -84,6 +85,8 @@ pub struct TransportArgs {
     /// its chunks flown again [default: 0.02 over zenoh, 0 over iceoryx2].
     #[arg(long, value_name = "RATE")]
     verify: Option<f64>,
+    #[command(flatten)]
+    pub watch: WatchArgs,
 }
 
 /// `--verify`'s default over zenoh: workers on other hosts (other memory,
@@ -93,22 +96,40 @@ pub struct TransportArgs {
 const DEFAULT_VERIFY_ZENOH: f64 = 0.02;
 
 impl TransportArgs {
+    /// The run's telemetry, under `--run-id` or a random run id, with its
+    /// metrics endpoint when `--metrics` asks for one.
+    pub fn watch(&self) -> anyhow::Result<Watch> {
+        let run_id = match &self.run_id {
+            Some(id) => {
+                check_run_id(id).map_err(|e| anyhow::anyhow!("--run-id {e}"))?;
+                id.clone()
+            }
+            None => format!("{:08x}", rand::random::<u32>()),
+        };
+        self.watch.start(run_id)
+    }
+
     /// The evaluator the flags ask for: in-process, spawned workers, or
-    /// attached ones.
+    /// attached ones, telling `telemetry` what happens to them.
     pub fn evaluator(
         &self,
         threads: usize,
-        bar: &ProgressBar,
+        telemetry: &Telemetry,
         stop: &Stop,
     ) -> anyhow::Result<Box<dyn Backend>> {
-        Ok(match self.pool(bar, stop)? {
+        Ok(match self.pool(telemetry, stop)? {
             Some(pool) => pool,
             None => Box::new(InProcess::new(threads)?.stopping_on(stop.clone())),
         })
     }
 
-    /// The worker pool the flags ask for, or `None` for in-process work.
-    pub fn pool(&self, bar: &ProgressBar, stop: &Stop) -> anyhow::Result<Option<Box<dyn Backend>>> {
+    /// The worker pool the flags ask for, under the telemetry's run id, or
+    /// `None` for in-process work.
+    pub fn pool(
+        &self,
+        telemetry: &Telemetry,
+        stop: &Stop,
+    ) -> anyhow::Result<Option<Box<dyn Backend>>> {
         anyhow::ensure!(
             self.workers <= MAX_WORKERS,
             "--workers must be at most {MAX_WORKERS} (got {})",
@@ -160,13 +181,7 @@ impl TransportArgs {
             !(self.attach && self.workers > 0),
             "--attach and --workers N exclude each other: attach waits for workers started elsewhere"
         );
-        let run_id = match &self.run_id {
-            Some(id) => {
-                check_run_id(id).map_err(|e| anyhow::anyhow!("--run-id {e}"))?;
-                id.clone()
-            }
-            None => format!("{:08x}", rand::random::<u32>()),
-        };
+        let run_id = telemetry.run().to_string();
         let deadline = Duration::from_secs_f64(self.deadline);
         let mut opts = pool_options(run_id, self.workers, deadline, !self.no_pin, stop)?;
         opts.spin = Duration::from_micros(self.spin_us);
@@ -182,18 +197,21 @@ impl TransportArgs {
             );
             opts.min_workers = n;
         }
-        let bar = bar.clone();
-        let say = Box::new(move |msg: &str| bar.suspend(|| eprintln!("lander: {msg}")));
         if self.attach {
-            say(&format!("run id {}", opts.run_id));
+            tracing::info!("run id {}", opts.run_id);
         }
+        let telemetry = telemetry.clone();
         Ok(Some(match self.transport {
-            TransportArg::Iceoryx2 => Box::new(IpcPool::start(opts, say)?),
-            TransportArg::Zenoh => self.zenoh_pool(opts, say)?,
+            TransportArg::Iceoryx2 => Box::new(IpcPool::start(opts, telemetry)?),
+            TransportArg::Zenoh => self.zenoh_pool(opts, telemetry)?,
         }))
     }
 
-    fn zenoh_pool(&self, opts: PoolOptions, say: Say) -> anyhow::Result<Box<dyn Backend>> {
+    fn zenoh_pool(
+        &self,
+        opts: PoolOptions,
+        telemetry: Telemetry,
+    ) -> anyhow::Result<Box<dyn Backend>> {
         let options = NetOptions {
             listen: if self.listen.is_empty() {
                 vec![DEFAULT_LISTEN.into()]
@@ -208,13 +226,13 @@ impl TransportArgs {
         let then_can = "join this run and send it results";
         let remedy = "pass --users or a mutual-TLS --zenoh-config";
         if let Some(warning) = strangers_warning(&config, then_can, remedy) {
-            say(&warning);
+            tracing::warn!("{warning}");
         }
         let transport = Zenoh::open(&opts.run_id, config)?;
         if transport.io_on_one_thread {
-            say(lander_protocol::net::TLS_NOTE);
+            tracing::info!("{}", lander_protocol::net::TLS_NOTE);
         }
-        Ok(Box::new(Pool::with_transport(transport, opts, say)?))
+        Ok(Box::new(Pool::with_transport(transport, opts, telemetry)?))
     }
 }
 

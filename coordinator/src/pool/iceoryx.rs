@@ -30,6 +30,8 @@ pub struct Iceoryx {
     register: Subscriber<ipc::Service, WorkerAnnounce, ()>,
     wake: Listener<ipc::Service>,
     last_reap: Instant,
+    /// This host's name, which every worker shares.
+    host: String,
 }
 
 impl Iceoryx {
@@ -61,12 +63,17 @@ impl Iceoryx {
             register,
             wake,
             last_reap: Instant::now(),
+            host: lander_protocol::host::name(),
         })
     }
 }
 
 impl Transport for Iceoryx {
     type Link = Link;
+
+    fn name(&self) -> &'static str {
+        "iceoryx2"
+    }
 
     fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError> {
         let mut arrived = Vec::new();
@@ -80,6 +87,8 @@ impl Transport for Iceoryx {
                 id: w.worker_id,
                 pid: w.pid,
                 version: w.version,
+                // Workers over iceoryx2 share this host.
+                host: self.host.clone(),
             });
         }
         Ok(arrived)

@@ -11,11 +11,13 @@ use lander_protocol::wire::{
 use std::time::{Duration, Instant};
 
 /// A worker that announced itself.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Arrival {
     pub id: u64,
     pub pid: u32,
     pub version: u32,
+    /// The host it runs on, as it said (empty where it did not).
+    pub host: String,
 }
 
 /// One answered chunk, its body checked but not decoded.
@@ -28,6 +30,8 @@ pub struct Answer {
 /// How a transport finds its workers and waits for them.
 pub trait Transport {
     type Link: WorkerLink;
+    /// Its name in the metrics: `iceoryx2`, `zenoh`.
+    fn name(&self) -> &'static str;
     /// Workers that announced themselves since the last look.
     fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError>;
     fn connect(&mut self, arrival: &Arrival) -> Result<Self::Link, String>;

@@ -25,6 +25,12 @@
 //! - `backend`: the [`Evaluator`] and [`Trainer`] impls;
 //! - `timing`: [`ChunkTiming`], the stamps of both ends.
 //!
+//! What happens to workers is told as [`Event`]s through the pool's
+//! [`Telemetry`]: logged, appended to the run's `events.jsonl`, counted in
+//! the metrics.
+//!
+//! [`Event`]: lander_telemetry::Event
+//!
 //! [`JobHeader`]: lander_protocol::wire::JobHeader
 //! [`Evaluator`]: crate::evaluator::Evaluator
 //! [`Trainer`]: crate::evaluator::Trainer
@@ -48,8 +54,9 @@ pub use spawn::{kill_worker_child, worker_children};
 pub use timing::ChunkTiming;
 
 use crate::stop::Stop;
+use lander_telemetry::Telemetry;
 use spawn::Children;
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -91,9 +98,6 @@ pub struct PoolOptions {
     pub stop: Stop,
 }
 
-/// Messages for the user, such as "waiting for workers".
-pub type Say = Box<dyn Fn(&str) + Send>;
-
 /// The pool over iceoryx2, for workers on this host.
 pub type IpcPool = Pool<iceoryx::Iceoryx>;
 /// The pool over zenoh, for workers on any host.
@@ -116,5 +120,8 @@ pub struct Pool<T: Transport> {
     timings: Option<Vec<ChunkTiming>>,
     /// The workers' own time on every chunk answered, summed.
     busy: std::time::Duration,
-    say: Say,
+    /// The host each connected worker announced, by worker id.
+    hosts: HashMap<u64, String>,
+    /// Where worker events go: the log, events.jsonl, the metrics.
+    telemetry: Telemetry,
 }

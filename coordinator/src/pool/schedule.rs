@@ -7,6 +7,8 @@
 use super::{Answer, Pool, Transport, WorkerLink};
 use crate::evaluator::EvalError;
 use lander_protocol::wire::{JobHeader, WireGene};
+use lander_telemetry::events::Cause;
+use lander_telemetry::Event;
 use std::collections::VecDeque;
 use std::ops::Range;
 
@@ -76,8 +78,9 @@ impl<T: Transport> Pool<T> {
             }
             self.accept()?;
             self.reap(&mut todo)?;
-            let fresh = self.collect(&mut answered);
-            self.drop_links(&mut todo, |l| l.is_broken(), "disconnected");
+            let (fresh, malformed) = self.collect(&mut answered);
+            self.drop_links(&mut todo, |l| malformed.contains(&l.id()), Cause::Refused);
+            self.drop_links(&mut todo, |l| l.is_broken(), Cause::Disconnected);
             // A worker that ran dry gets more before anything is decoded:
             // decoding can wait, an idle worker should not.
             todo.retain(|&c| !answered[c]);
@@ -101,31 +104,37 @@ impl<T: Transport> Pool<T> {
                         remaining -= 1;
                     }
                     Err(e) => {
-                        (self.say)(&format!("refusing a result from worker {worker:016x}: {e}"));
+                        let mut pid = 0;
                         for link in self.links.iter_mut().filter(|l| l.id() == worker) {
                             link.break_off();
+                            pid = link.pid();
                         }
+                        let who = self.worker_ref(worker, pid);
+                        self.refuse(who.clone(), format!("a result: {e}"));
                         answered[a.chunk] = false;
                         todo.push_front(a.chunk);
                         refused = true;
                         distrusted.push(worker);
                         // Its other answers are no longer believed either.
+                        let mut again = 1;
                         for c in 0..chunks.len() {
                             if owner[c] == Some(worker) && done[c].take().is_some() {
                                 owner[c] = None;
                                 answered[c] = false;
                                 remaining += 1;
                                 todo.push_back(c);
+                                again += 1;
                             }
                         }
+                        self.telemetry.event(Event::ChunksRedispatched {
+                            worker: who,
+                            chunks: again,
+                            why: Cause::Refused,
+                        });
                     }
                 }
             }
-            self.drop_links(
-                &mut todo,
-                |l| l.is_broken(),
-                "is dropped for a refused answer and not taken back",
-            );
+            self.drop_links(&mut todo, |l| l.is_broken(), Cause::Refused);
             if remaining == 0 {
                 break;
             }
@@ -145,28 +154,40 @@ impl<T: Transport> Pool<T> {
 
     /// The answers that arrived, each with the worker that gave it, to
     /// chunks not answered before (a chunk run twice keeps its first
-    /// answer); checked, not yet decoded.
-    fn collect(&mut self, answered: &mut [bool]) -> Vec<(u64, Answer)> {
+    /// answer); checked, not yet decoded. Also the workers whose answer
+    /// failed its checks, refused now.
+    fn collect(&mut self, answered: &mut [bool]) -> (Vec<(u64, Answer)>, Vec<u64>) {
         let mut fresh = Vec::new();
-        for link in &mut self.links {
-            let (answers, refused) = link.poll();
+        let mut malformed = Vec::new();
+        for i in 0..self.links.len() {
+            let (answers, refused) = self.links[i].poll();
+            let (id, pid) = (self.links[i].id(), self.links[i].pid());
             if let Some(e) = refused {
-                (self.say)(&format!(
-                    "refusing a result from worker {:016x}: {e}",
-                    link.id()
-                ));
+                self.refuse(self.worker_ref(id, pid), format!("a result: {e}"));
+                malformed.push(id);
             }
             for a in answers {
                 self.busy += a.timing.compute();
+                if let Some(m) = self.telemetry.metrics() {
+                    m.round_trip(a.timing.round_trip());
+                }
                 if let Some(t) = &mut self.timings {
                     t.push(a.timing);
                 }
                 if !std::mem::replace(&mut answered[a.chunk], true) {
-                    fresh.push((link.id(), a));
+                    fresh.push((id, a));
                 }
             }
         }
-        fresh
+        (fresh, malformed)
+    }
+
+    /// Refuses `worker` for good, saying why.
+    fn refuse(&self, worker: lander_telemetry::WorkerRef, why: String) {
+        if let Some(m) = self.telemetry.metrics() {
+            m.chunks_refused.inc();
+        }
+        self.telemetry.event(Event::WorkerRefused { worker, why });
     }
 
     /// Once nothing is left to hand out, gives each idle worker the last
@@ -192,6 +213,9 @@ impl<T: Transport> Pool<T> {
                 break;
             };
             self.taken_back += 1;
+            if let Some(m) = self.telemetry.metrics() {
+                m.chunks_taken_back.inc();
+            }
             self.hand(idle, chunks, chunk, todo);
         }
     }
@@ -236,9 +260,14 @@ impl<T: Transport> Pool<T> {
         let deadline = chunks[chunk].timed.then_some(self.opts.deadline);
         let link = &mut self.links[i];
         match link.send(header, &chunks[chunk].genes, chunk, deadline) {
-            Ok(()) => true,
+            Ok(()) => {
+                if let Some(m) = self.telemetry.metrics() {
+                    m.chunks_dispatched.inc();
+                }
+                true
+            }
             Err(e) => {
-                (self.say)(&format!("cannot send to worker {:016x}: {e}", link.id()));
+                tracing::warn!("cannot send to worker {:016x}: {e}", link.id());
                 todo.push_front(chunk);
                 false
             }
@@ -251,7 +280,7 @@ impl<T: Transport> Pool<T> {
         for link in &mut self.links {
             if let Err(e) = link.notify() {
                 // Its chunks go elsewhere when the broken link is dropped.
-                (self.say)(&format!("cannot notify worker {:016x}: {e}", link.id()));
+                tracing::warn!("cannot notify worker {:016x}: {e}", link.id());
             }
         }
     }

@@ -54,8 +54,9 @@ impl Children {
         self.procs.iter().any(|(child, _)| child.id() == pid)
     }
 
-    /// Starts one more worker, on the next free CPU if any.
-    pub fn spawn(&mut self) -> Result<(), EvalError> {
+    /// Starts one more worker, on the next free CPU if any, and returns
+    /// its pid.
+    pub fn spawn(&mut self) -> Result<u32, EvalError> {
         let cpu = self.free_cpus.pop();
         let mut command = Command::new(&self.exe);
         command.args([
@@ -80,19 +81,19 @@ impl Children {
                 }
             })?;
         self.next_id += 1;
+        let pid = child.id();
         self.procs.push((child, cpu));
-        Ok(())
+        Ok(pid)
     }
 
     /// Replaces a worker that died, while the respawn budget lasts.
-    /// Returns whether it did.
-    pub fn respawn(&mut self) -> Result<bool, EvalError> {
+    /// Returns the new worker's pid, or `None` once the budget is spent.
+    pub fn respawn(&mut self) -> Result<Option<u32>, EvalError> {
         if self.respawns_left == 0 {
-            return Ok(false);
+            return Ok(None);
         }
         self.respawns_left -= 1;
-        self.spawn()?;
-        Ok(true)
+        self.spawn().map(Some)
     }
 
     /// Reaps the workers that exited and returns their pids.

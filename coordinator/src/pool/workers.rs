@@ -7,10 +7,12 @@
 
 use super::link::overdue;
 use super::spawn::Children;
-use super::{iceoryx, IpcPool, Pool, PoolOptions, Say, Transport, WorkerLink};
+use super::{iceoryx, IpcPool, Pool, PoolOptions, Transport, WorkerLink};
 use crate::evaluator::EvalError;
 use lander_protocol::wire::PROTOCOL_VERSION;
-use std::collections::{HashSet, VecDeque};
+use lander_telemetry::events::{Cause, Death};
+use lander_telemetry::{Event, Telemetry, WorkerRef};
+use std::collections::{HashMap, HashSet, VecDeque};
 use std::time::{Duration, Instant};
 
 /// How long the pool sleeps at most before looking after its workers.
@@ -19,15 +21,19 @@ const SLICE: Duration = Duration::from_millis(25);
 impl IpcPool {
     /// Opens the run's iceoryx2 services and, when asked to, spawns its
     /// workers.
-    pub fn start(opts: PoolOptions, say: Say) -> Result<IpcPool, EvalError> {
+    pub fn start(opts: PoolOptions, telemetry: Telemetry) -> Result<IpcPool, EvalError> {
         let transport = iceoryx::Iceoryx::open(&opts.run_id)?;
-        Pool::with_transport(transport, opts, say)
+        Pool::with_transport(transport, opts, telemetry)
     }
 }
 
 impl<T: Transport> Pool<T> {
     /// A pool over `transport` that spawns `opts.spawn` workers.
-    pub fn with_transport(transport: T, opts: PoolOptions, say: Say) -> Result<Pool<T>, EvalError> {
+    pub fn with_transport(
+        transport: T,
+        opts: PoolOptions,
+        telemetry: Telemetry,
+    ) -> Result<Pool<T>, EvalError> {
         let mut pool = Pool {
             children: Children::new(
                 opts.worker_exe.clone(),
@@ -44,7 +50,8 @@ impl<T: Transport> Pool<T> {
             told_waiting: false,
             timings: None,
             busy: std::time::Duration::ZERO,
-            say,
+            hosts: HashMap::new(),
+            telemetry,
             opts,
         };
         for _ in 0..pool.opts.spawn {
@@ -87,6 +94,11 @@ impl<T: Transport> Pool<T> {
             if self.dropped.contains(&w.id) || self.links.iter().any(|l| l.id() == w.id) {
                 continue;
             }
+            let worker = WorkerRef {
+                id: w.id,
+                host: w.host.clone(),
+                pid: w.pid,
+            };
             if w.version != PROTOCOL_VERSION {
                 // One this pool started will never speak another version:
                 // the executables come from different builds, and none of
@@ -98,51 +110,75 @@ impl<T: Transport> Pool<T> {
                         got: w.version,
                     });
                 }
-                (self.say)(&format!(
-                    "refusing worker {:016x} (pid {}): it speaks protocol version {}, this coordinator {}",
-                    w.id, w.pid, w.version, PROTOCOL_VERSION
-                ));
+                self.telemetry.event(Event::WorkerRefused {
+                    worker,
+                    why: format!(
+                        "it speaks protocol version {}, this coordinator {}",
+                        w.version, PROTOCOL_VERSION
+                    ),
+                });
                 // It re-announces until served; say so once.
                 self.dropped.insert(w.id);
                 continue;
             }
             match self.transport.connect(&w) {
-                Ok(link) => self.links.push(link),
-                Err(e) => (self.say)(&format!("cannot reach worker {:016x}: {e}", w.id)),
+                Ok(link) => {
+                    self.links.push(link);
+                    self.hosts.insert(w.id, w.host);
+                    self.telemetry.event(Event::WorkerJoined { worker });
+                }
+                Err(e) => tracing::warn!("cannot reach worker {:016x}: {e}", w.id),
             }
         }
+        self.count_workers();
         Ok(())
+    }
+
+    /// Sets the metrics' count of connected workers.
+    pub(super) fn count_workers(&self) {
+        if let Some(m) = self.telemetry.metrics() {
+            m.workers_connected
+                .with_label_values(&[self.transport.name()])
+                .set(self.links.len() as i64);
+        }
+    }
+
+    /// A connected worker, as events name it.
+    pub(super) fn worker_ref(&self, id: u64, pid: u32) -> WorkerRef {
+        WorkerRef {
+            id,
+            host: self.hosts.get(&id).cloned().unwrap_or_default(),
+            pid,
+        }
     }
 
     /// Drops links whose process exited or whose node died, and replaces
     /// spawned workers that are gone. Their chunks go back in `todo`.
     pub(super) fn reap(&mut self, todo: &mut VecDeque<usize>) -> Result<(), EvalError> {
         for pid in self.children.exited() {
-            let replaced = self.children.respawn()?;
-            (self.say)(&format!(
-                "worker process {pid} exited; {}",
-                if replaced {
-                    "starting another"
-                } else {
-                    "no respawns left"
-                }
-            ));
-            self.drop_links(todo, |l| l.pid() == pid, "exited");
+            // Nothing to drop for a worker dropped already, which the pool
+            // killed, or one that died before it joined.
+            self.drop_links(todo, |l| l.pid() == pid, Cause::Exited);
+            match self.children.respawn()? {
+                Some(pid) => self.telemetry.event(Event::WorkerRespawned { pid }),
+                None => tracing::warn!("worker process {pid} exited; no respawns left"),
+            }
         }
         let gone = self.transport.departures();
-        self.drop_links(todo, |l| gone.contains(&l.id()), "left");
+        self.drop_links(todo, |l| gone.contains(&l.id()), Cause::Left);
         let now = Instant::now();
-        self.drop_links(todo, |l| overdue(l, now), "missed its deadline");
+        self.drop_links(todo, |l| overdue(l, now), Cause::Deadline);
         Ok(())
     }
 
-    /// Forgets the links `gone` picks, putting their chunks back first.
+    /// Forgets the links `gone` picks, putting their chunks back first, and
+    /// tells why. Returns whether it dropped any.
     pub(super) fn drop_links(
         &mut self,
         todo: &mut VecDeque<usize>,
         gone: impl Fn(&T::Link) -> bool,
-        why: &str,
-    ) {
+        why: Cause,
+    ) -> bool {
         let mut dropped = Vec::new();
         self.links.retain_mut(|link| {
             if !gone(link) {
@@ -155,19 +191,45 @@ impl<T: Transport> Pool<T> {
             // A worker we stop trusting is told to leave and, if we
             // spawned it, killed (the next reap replaces it).
             link.shut_down();
-            dropped.push((link.id(), link.pid(), !chunks.is_empty()));
+            dropped.push((link.id(), link.pid(), chunks.len()));
             false
         });
-        for (id, pid, requeued) in dropped {
+        for &(id, pid, requeued) in &dropped {
             self.children.kill(pid);
             self.dropped.insert(id);
-            let then = if requeued {
-                "; its chunks go to other workers"
-            } else {
-                ""
+            let worker = self.worker_ref(id, pid);
+            let lost = match why {
+                Cause::Exited => Some(Event::WorkerDied {
+                    worker: worker.clone(),
+                    why: Death::Exited,
+                }),
+                Cause::Disconnected => Some(Event::WorkerDied {
+                    worker: worker.clone(),
+                    why: Death::Disconnected,
+                }),
+                Cause::Left => Some(Event::WorkerLeft {
+                    worker: worker.clone(),
+                }),
+                Cause::Deadline => Some(Event::WorkerTimedOut {
+                    worker: worker.clone(),
+                }),
+                // Told when its answer was refused.
+                Cause::Refused => None,
             };
-            (self.say)(&format!("worker {id:016x} {why}{then}"));
+            if let Some(event) = lost {
+                self.telemetry.event(event);
+            }
+            if requeued > 0 {
+                self.telemetry.event(Event::ChunksRedispatched {
+                    worker,
+                    chunks: requeued,
+                    why,
+                });
+            }
+            self.hosts.remove(&id);
         }
+        self.count_workers();
+        !dropped.is_empty()
     }
 
     /// Sleeps until a worker says something or the next deadline is due.
@@ -188,10 +250,10 @@ impl<T: Transport> Pool<T> {
         let wanted = std::mem::take(&mut self.opts.min_workers);
         if self.links.len() < wanted {
             self.tell_waiting();
-            (self.say)(&format!(
+            tracing::info!(
                 "waiting for {wanted} workers before the first generation ({} so far)",
                 self.links.len()
-            ));
+            );
             self.wait_for_workers(wanted, Duration::MAX)?;
         }
         Ok(())
@@ -199,7 +261,7 @@ impl<T: Transport> Pool<T> {
 
     pub(super) fn tell_waiting(&mut self) {
         if self.links.is_empty() && self.opts.spawn == 0 && !self.told_waiting {
-            (self.say)(&format!(
+            tracing::info!(
                 "waiting for workers: start them with `lander-worker --run {}{}`",
                 self.opts.run_id,
                 self.transport
@@ -207,7 +269,7 @@ impl<T: Transport> Pool<T> {
                     .iter()
                     .map(|a| format!(" {a}"))
                     .collect::<String>()
-            ));
+            );
             self.told_waiting = true;
         }
     }
@@ -237,20 +299,22 @@ impl<T: Transport> Drop for Pool<T> {
         let told: Vec<u32> = self.links.iter().map(WorkerLink::pid).collect();
         let stuck = self.children.stop_all(&told);
         if stuck > 0 {
-            (self.say)(&format!(
-                "killed {stuck} worker(s) that did not leave when the run ended"
-            ));
+            tracing::warn!("killed {stuck} worker(s) that did not leave when the run ended");
         }
         self.transport.close();
     }
 }
 
 /// What spawned workers are told on their command line: the transport's
-/// arguments, and a spin budget where every worker and the coordinator
-/// have a CPU of their own, so that a spinning worker takes a CPU from no
-/// other process of the run.
+/// arguments, the coordinator's log format (they share its stderr), and a
+/// spin budget where every worker and the coordinator have a CPU of their
+/// own, so that a spinning worker takes a CPU from no other process of the
+/// run.
 fn worker_args<T: Transport>(transport: &T, opts: &PoolOptions) -> Vec<String> {
     let mut args = transport.worker_args();
+    if lander_telemetry::log::format() == lander_telemetry::log::LogFormat::Json {
+        args.extend(["--log-format".to_string(), "json".to_string()]);
+    }
     let cpus = lander_protocol::host::allowed_cpus().len();
     if let Some(us) = spin_us(opts.spin, opts.spawn, cpus) {
         args.extend(["--spin-us".to_string(), us.to_string()]);

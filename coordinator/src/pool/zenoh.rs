@@ -73,11 +73,17 @@ impl Zenoh {
             .declare_subscriber(keys.alive_all())
             .history(true)
             .callback(move |sample: Sample| {
-                let Some((id, version, pid)) = watch.parse_alive(sample.key_expr().as_str()) else {
+                let Some((id, version, pid, host)) = watch.parse_alive(sample.key_expr().as_str())
+                else {
                     return;
                 };
                 let event = match sample.kind() {
-                    SampleKind::Put => Event::Arrived(Arrival { id, pid, version }),
+                    SampleKind::Put => Event::Arrived(Arrival {
+                        id,
+                        pid,
+                        version,
+                        host,
+                    }),
                     SampleKind::Delete => Event::Left(id),
                 };
                 let _ = tx.send(event);
@@ -126,6 +132,10 @@ fn reachable(endpoint: &str) -> String {
 
 impl Transport for Zenoh {
     type Link = Link;
+
+    fn name(&self) -> &'static str {
+        "zenoh"
+    }
 
     fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError> {
         while let Ok(event) = self.events.try_recv() {

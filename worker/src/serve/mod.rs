@@ -13,7 +13,25 @@ use lander_protocol::wire::{
 
 pub use iceoryx::serve;
 
+use lander_telemetry::WorkerMetrics;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::OnceLock;
+use std::time::Duration;
+
+/// The worker's metrics, once `--metrics` turned them on.
+static METRICS: OnceLock<WorkerMetrics> = OnceLock::new();
+
+/// Counts every job from now on, and returns the metrics to serve.
+pub fn count_jobs() -> &'static WorkerMetrics {
+    METRICS.get_or_init(WorkerMetrics::new)
+}
+
+/// Counts a frame refused before it became a job.
+pub fn count_rejected_frame() {
+    if let Some(m) = METRICS.get() {
+        m.rejected_frames.inc();
+    }
+}
 
 /// Jobs this process has answered, refusals included: one worker per
 /// process, so one count.
@@ -88,13 +106,20 @@ pub fn answer(
         }
     };
     ANSWERED.fetch_add(1, Ordering::Relaxed);
+    let finished_ns = host_clock_ns();
+    if let Some(m) = METRICS.get() {
+        let done = status == Status::Done;
+        let genomes = if done { u64::from(header.genomes) } else { 0 };
+        let took = Duration::from_nanos(finished_ns.saturating_sub(started_ns));
+        m.served(genomes, took, !done);
+    }
     let result = ResultHeader {
         version: PROTOCOL_VERSION,
         status: status as u32,
         job_id: header.job_id,
         worker_id: id,
         started_ns,
-        finished_ns: host_clock_ns(),
+        finished_ns,
     };
     (result, body)
 }

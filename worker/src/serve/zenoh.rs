@@ -107,7 +107,12 @@ fn serve_session(
     // Declared last: once the coordinator sees the token, jobs reach us.
     let _token = session
         .liveliness()
-        .declare_token(keys.alive(id, PROTOCOL_VERSION, std::process::id()))
+        .declare_token(keys.alive(
+            id,
+            PROTOCOL_VERSION,
+            std::process::id(),
+            &lander_protocol::host::name(),
+        ))
         .wait()
         .map_err(net::fail("declaring the liveliness token"))?;
     say(
@@ -155,6 +160,7 @@ fn serve_query(
         }
         Err(e) => {
             *rejected += 1;
+            super::count_rejected_frame();
             say(
                 Note::Warning,
                 &format!("rejected frame #{rejected} ({} bytes): {e}", frame.len()),

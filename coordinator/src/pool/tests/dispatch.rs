@@ -9,7 +9,7 @@ fn pool(links: Vec<Vec<usize>>) -> Pool<Nowhere> {
     let links = (0..)
         .zip(links)
         .map(|(id, chunks)| Recorder::holding(id, chunks));
-    super::fake::pool(links.collect(), Box::new(|_| ()))
+    super::fake::pool(links.collect(), Default::default())
 }
 
 /// Which chunks each of `workers` links is sent, from `n` queued.

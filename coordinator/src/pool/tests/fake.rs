@@ -2,7 +2,7 @@
 
 use crate::evaluator::EvalError;
 use crate::pool::{
-    Answer, Arrival, Chunk, ChunkTiming, Pool, PoolOptions, Say, Transport, WorkerLink, DEPTH,
+    Answer, Arrival, Chunk, ChunkTiming, Pool, PoolOptions, Transport, WorkerLink, DEPTH,
 };
 use crate::stop::Stop;
 use lander_protocol::wire::{JobHeader, WireGene};
@@ -107,6 +107,9 @@ pub struct Nowhere;
 
 impl Transport for Nowhere {
     type Link = Recorder;
+    fn name(&self) -> &'static str {
+        "nowhere"
+    }
     fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError> {
         Ok(Vec::new())
     }
@@ -125,7 +128,7 @@ impl Transport for Nowhere {
     fn close(&mut self) {}
 }
 
-pub fn pool(links: Vec<Recorder>, say: Say) -> Pool<Nowhere> {
+pub fn pool(links: Vec<Recorder>, telemetry: lander_telemetry::Telemetry) -> Pool<Nowhere> {
     let opts = PoolOptions {
         run_id: "t".into(),
         spawn: 0,
@@ -139,7 +142,7 @@ pub fn pool(links: Vec<Recorder>, say: Say) -> Pool<Nowhere> {
         verify: 0.0,
         stop: Stop::new(),
     };
-    let mut pool = Pool::with_transport(Nowhere, opts, say).unwrap();
+    let mut pool = Pool::with_transport(Nowhere, opts, telemetry).unwrap();
     pool.links = links;
     pool
 }

@@ -2,12 +2,15 @@
 //! that fail to decode.
 
 use super::fake::{no_chunks, pool, Recorder};
-use std::sync::{Arc, Mutex};
+use lander_telemetry::events::EVENTS_FILE;
+use lander_telemetry::{CoordinatorMetrics, Telemetry};
+use std::sync::Arc;
 
 #[test]
 fn a_refused_answer_costs_its_worker_and_the_chunk_runs_elsewhere() {
-    let said = Arc::new(Mutex::new(Vec::<String>::new()));
-    let log = said.clone();
+    let dir = tempfile::tempdir().unwrap();
+    let telemetry = Telemetry::new("t", Some(Arc::new(CoordinatorMetrics::new())));
+    telemetry.record_to(dir.path()).unwrap();
     let links = [(7, b"garbage"), (8, b"fine!!!")]
         .into_iter()
         .map(|(id, body)| Recorder {
@@ -15,8 +18,7 @@ fn a_refused_answer_costs_its_worker_and_the_chunk_runs_elsewhere() {
             ..Recorder::holding(id, Vec::new())
         })
         .collect();
-    let say = Box::new(move |m: &str| log.lock().unwrap().push(m.to_string()));
-    let mut pool = pool(links, say);
+    let mut pool = pool(links, telemetry.clone());
     let decode = |i: usize, body: &[u8]| match body {
         b"fine!!!" => Ok(i * 10),
         _ => Err("does not decode".to_string()),
@@ -31,11 +33,29 @@ fn a_refused_answer_costs_its_worker_and_the_chunk_runs_elsewhere() {
     let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
     assert_eq!(ids, [8], "the worker that answered badly is dropped");
     assert!(pool.dropped.contains(&7));
-    let said = said.lock().unwrap();
+    let events: Vec<serde_json::Value> = std::fs::read_to_string(dir.path().join(EVENTS_FILE))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let refused: Vec<_> = events
+        .iter()
+        .filter(|e| e["event"] == "worker_refused")
+        .collect();
+    assert_eq!(refused.len(), 1, "{events:?}");
+    assert_eq!(refused[0]["worker"], "0000000000000007");
+    assert!(refused[0]["why"]
+        .as_str()
+        .unwrap()
+        .contains("does not decode"));
+    let metrics = String::from_utf8(telemetry.metrics().unwrap().encode()).unwrap();
     assert!(
-        said.iter()
-            .any(|m| m.contains("0000000000000007") && m.contains("does not decode")),
-        "{said:?}"
+        metrics.contains("lander_chunks_refused_total 1"),
+        "{metrics}"
+    );
+    assert!(
+        metrics.contains("lander_workers_lost_total{cause=\"refused\"} 1"),
+        "{metrics}"
     );
 }
 
@@ -49,7 +69,7 @@ fn a_link_that_fails_its_checks_keeps_its_good_answers() {
             ..Recorder::holding(id, Vec::new())
         })
         .collect();
-    let mut pool = pool(links, Box::new(|_| ()));
+    let mut pool = pool(links, Default::default());
     pool.record_timings();
     let mut seen = Vec::new();
     let results = pool

@@ -17,6 +17,9 @@ struct OtherBuild {
 
 impl Transport for OtherBuild {
     type Link = super::fake::Recorder;
+    fn name(&self) -> &'static str {
+        "other"
+    }
     fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError> {
         let pid = std::fs::read_to_string(&self.pid_file).unwrap_or_default();
         Ok(pid
@@ -28,6 +31,7 @@ impl Transport for OtherBuild {
                 id: 1,
                 pid,
                 version: PROTOCOL_VERSION + 1,
+                host: String::new(),
             })
             .collect())
     }
@@ -74,7 +78,7 @@ fn a_spawned_worker_of_another_build_ends_the_wait_at_once() {
         verify: 0.0,
         stop: Stop::new(),
     };
-    let mut pool = Pool::with_transport(OtherBuild { pid_file }, opts, Box::new(|_| ())).unwrap();
+    let mut pool = Pool::with_transport(OtherBuild { pid_file }, opts, Default::default()).unwrap();
     let started = Instant::now();
     let e = pool
         .wait_for_workers(1, Duration::from_secs(60))

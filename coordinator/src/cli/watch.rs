@@ -1,0 +1,118 @@
+//! What every evaluating command offers for watching it: `--metrics ADDR`
+//! and the run's [`Telemetry`], through which its events reach the log,
+//! the folder's `events.jsonl` and the metrics; and [`Watched`], which
+//! counts an experiment's or a sweep's generations and trials.
+
+use anyhow::Context;
+use clap::Args;
+use lander_coordinator::config::RunConfig;
+use lander_coordinator::experiment::{ExperimentError, Progress};
+use lander_coordinator::trial::Generation;
+use lander_report::model::TrialRecord;
+use lander_telemetry::{CoordinatorMetrics, Event, MetricsServer, Telemetry};
+use std::collections::HashMap;
+use std::hash::Hash;
+use std::path::Path;
+use std::sync::Arc;
+
+#[derive(Args, Debug, Default)]
+pub struct WatchArgs {
+    /// Serve Prometheus metrics at http://ADDR/metrics while the command
+    /// runs. ADDR is HOST:PORT, or a PORT on loopback.
+    #[arg(long, value_name = "ADDR")]
+    pub metrics: Option<String>,
+}
+
+/// A command's telemetry, and its metrics endpoint while it lasts.
+pub struct Watch {
+    pub telemetry: Telemetry,
+    _server: Option<MetricsServer>,
+}
+
+impl WatchArgs {
+    /// The telemetry of run `run_id`, with its endpoint listening when
+    /// `--metrics` asks for one.
+    pub fn start(&self, run_id: String) -> anyhow::Result<Watch> {
+        let Some(addr) = &self.metrics else {
+            return Ok(Watch {
+                telemetry: Telemetry::new(run_id, None),
+                _server: None,
+            });
+        };
+        let metrics = Arc::new(CoordinatorMetrics::new());
+        let served = metrics.clone();
+        let server = MetricsServer::start(addr, move || served.encode())?;
+        Ok(Watch {
+            telemetry: Telemetry::new(run_id, Some(metrics)),
+            _server: Some(server),
+        })
+    }
+}
+
+impl Watch {
+    /// Starts recording events in `dir/events.jsonl` and tells that
+    /// `command` started.
+    pub fn begin(&self, dir: &Path, command: &str) -> anyhow::Result<()> {
+        self.telemetry
+            .record_to(dir)
+            .with_context(|| format!("opening {}", dir.join("events.jsonl").display()))?;
+        self.telemetry.event(Event::RunStarted {
+            command: command.into(),
+        });
+        Ok(())
+    }
+
+    /// Tells how the run ended: finished, interrupted (and resumable), or
+    /// stopped by an error, which the error itself reports.
+    pub fn end<T>(&self, result: &anyhow::Result<T>, interrupted: bool) {
+        match (result, interrupted) {
+            (Ok(_), _) => self.telemetry.event(Event::RunFinished),
+            (Err(_), true) => self.telemetry.event(Event::RunInterrupted),
+            (Err(_), false) => {}
+        }
+    }
+}
+
+/// A trial's name in the metrics: `method/trial`, after its setting in a
+/// sweep.
+pub fn trial_label(setting: Option<&str>, cfg: &RunConfig) -> String {
+    let trial = format!("{}/{}", cfg.method.name(), cfg.trial);
+    match setting {
+        Some(s) => format!("{s}/{trial}"),
+        None => trial,
+    }
+}
+
+/// An experiment's or sweep's [`Progress`] that also counts generations
+/// and trials in the metrics, each trial under the label `label` gives it.
+pub struct Watched<'a, K, P> {
+    pub inner: P,
+    pub telemetry: &'a Telemetry,
+    pub label: &'a (dyn Fn(K, &RunConfig) -> String + Sync),
+    pub labels: HashMap<K, String>,
+}
+
+impl<K: Copy + Eq + Hash, P: Progress<K>> Progress<K> for Watched<'_, K, P> {
+    fn started(&mut self, key: K, cfg: &RunConfig) {
+        if let Some(m) = self.telemetry.metrics() {
+            let label = (self.label)(key, cfg);
+            m.trial_started(&label);
+            self.labels.insert(key, label);
+        }
+        self.inner.started(key, cfg);
+    }
+
+    fn generation(&mut self, key: K, g: &Generation) {
+        if let (Some(m), Some(label)) = (self.telemetry.metrics(), self.labels.get(&key)) {
+            m.generation(label, g.best, g.mean, g.evaluated);
+        }
+        self.inner.generation(key, g);
+    }
+
+    fn finished(&mut self, key: K, record: TrialRecord) -> Result<(), ExperimentError> {
+        if let (Some(m), Some(label)) = (self.telemetry.metrics(), self.labels.remove(&key)) {
+            m.trial_finished(&label);
+        }
+        self.inner.finished(key, record)
+    }
+}

@@ -1,0 +1,182 @@
+//! `--metrics ADDR`: serves the metrics at `http://ADDR/metrics` in
+//! Prometheus's text format, from a thread of its own, until dropped.
+//!
+//! ADDR is `HOST:PORT`, or a bare `PORT` for loopback. The address is bound
+//! before the run starts, so a bad address or a port in use is an error at
+//! start. Listening beyond loopback is allowed, with a warning: the
+//! metrics tell anyone who can reach the port how the run goes.
+
+use std::net::{IpAddr, Ipv4Addr, SocketAddr, ToSocketAddrs};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+
+/// Why the endpoint could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum ServeError {
+    #[error("--metrics `{given}`: {why}")]
+    Address { given: String, why: String },
+    #[error("--metrics {addr}: cannot listen there: {why}")]
+    Bind { addr: SocketAddr, why: String },
+}
+
+/// The content type of the text exposition format.
+const TEXT_FORMAT: &str = "text/plain; version=0.0.4; charset=utf-8";
+
+/// The running endpoint; dropping it stops it.
+pub struct MetricsServer {
+    server: Arc<tiny_http::Server>,
+    thread: Option<JoinHandle<()>>,
+    addr: SocketAddr,
+}
+
+/// Reads `HOST:PORT`, `[V6]:PORT` or a bare `PORT` (loopback).
+pub fn parse_addr(given: &str) -> Result<SocketAddr, ServeError> {
+    let bad = |why: String| ServeError::Address {
+        given: given.to_string(),
+        why,
+    };
+    if let Ok(port) = given.parse::<u16>() {
+        return Ok(SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), port));
+    }
+    if let Ok(addr) = given.parse::<SocketAddr>() {
+        return Ok(addr);
+    }
+    let mut found = given
+        .to_socket_addrs()
+        .map_err(|e| bad(format!("not HOST:PORT or PORT ({e})")))?;
+    found
+        .next()
+        .ok_or_else(|| bad("the host name has no address".into()))
+}
+
+impl MetricsServer {
+    /// Listens on `given` and serves `encode()`'s text at `/metrics`.
+    pub fn start(
+        given: &str,
+        encode: impl Fn() -> Vec<u8> + Send + 'static,
+    ) -> Result<MetricsServer, ServeError> {
+        let wanted = parse_addr(given)?;
+        let server = tiny_http::Server::http(wanted).map_err(|e| ServeError::Bind {
+            addr: wanted,
+            why: e.to_string(),
+        })?;
+        let addr = server
+            .server_addr()
+            .to_ip()
+            .ok_or_else(|| ServeError::Bind {
+                addr: wanted,
+                why: "not an IP socket".into(),
+            })?;
+        if !addr.ip().is_loopback() {
+            tracing::warn!(
+                "--metrics listens on {addr}, beyond loopback: anyone who can reach it can read how the run goes"
+            );
+        }
+        let server = Arc::new(server);
+        let serving = server.clone();
+        let thread = std::thread::Builder::new()
+            .name("metrics".into())
+            .spawn(move || {
+                for request in serving.incoming_requests() {
+                    answer(request, &encode);
+                }
+            })
+            .map_err(|e| ServeError::Bind {
+                addr,
+                why: format!("cannot start its thread: {e}"),
+            })?;
+        tracing::info!("serving metrics at http://{addr}/metrics");
+        Ok(MetricsServer {
+            server,
+            thread: Some(thread),
+            addr,
+        })
+    }
+
+    /// Where it listens (the port chosen, for a requested port 0).
+    pub fn addr(&self) -> SocketAddr {
+        self.addr
+    }
+}
+
+/// Answers one request: the metrics at `/metrics`, a pointer to them at
+/// `/`, 404 elsewhere, 405 for anything but GET and HEAD.
+fn answer(request: tiny_http::Request, encode: &dyn Fn() -> Vec<u8>) {
+    use tiny_http::{Header, Method, Response};
+    let header = |value: &str| {
+        Header::from_bytes(&b"Content-Type"[..], value.as_bytes()).expect("a valid header")
+    };
+    let response = if !matches!(request.method(), Method::Get | Method::Head) {
+        Response::from_string("only GET and HEAD\n").with_status_code(405)
+    } else {
+        match request.url().split('?').next() {
+            Some("/metrics") => Response::from_data(encode()).with_header(header(TEXT_FORMAT)),
+            Some("/") => Response::from_string("lander: metrics at /metrics\n"),
+            _ => Response::from_string("not found; metrics at /metrics\n").with_status_code(404),
+        }
+    };
+    // A scraper that hung up has nothing more to be told.
+    let _ = request.respond(response);
+}
+
+impl Drop for MetricsServer {
+    fn drop(&mut self) {
+        self.server.unblock();
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::{Read, Write};
+    use std::net::TcpStream;
+
+    fn get(addr: SocketAddr, path: &str) -> String {
+        let mut s = TcpStream::connect(addr).unwrap();
+        write!(s, "GET {path} HTTP/1.0\r\nHost: x\r\n\r\n").unwrap();
+        let mut out = String::new();
+        s.read_to_string(&mut out).unwrap();
+        out
+    }
+
+    #[test]
+    fn serves_the_text_format_at_metrics_only() {
+        let server = MetricsServer::start("127.0.0.1:0", || b"up 1\n".to_vec()).unwrap();
+        let got = get(server.addr(), "/metrics");
+        assert!(
+            got.starts_with("HTTP/1.0 200") || got.starts_with("HTTP/1.1 200"),
+            "{got}"
+        );
+        assert!(got.contains("text/plain; version=0.0.4"), "{got}");
+        assert!(got.ends_with("up 1\n"), "{got}");
+        assert!(get(server.addr(), "/nothing").contains(" 404 "));
+    }
+
+    #[test]
+    fn a_port_in_use_and_a_bad_address_are_errors_naming_the_flag() {
+        let first = MetricsServer::start("127.0.0.1:0", Vec::new).unwrap();
+        let taken = first.addr().to_string();
+        let e = MetricsServer::start(&taken, Vec::new).err().unwrap();
+        assert!(
+            e.to_string()
+                .starts_with(&format!("--metrics {taken}: cannot listen")),
+            "{e}"
+        );
+        let e = MetricsServer::start("no such:host:9", Vec::new)
+            .err()
+            .unwrap();
+        assert!(
+            e.to_string().starts_with("--metrics `no such:host:9`"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_bare_port_is_loopback() {
+        assert_eq!(parse_addr("9464").unwrap().to_string(), "127.0.0.1:9464");
+        assert_eq!(parse_addr("[::1]:80").unwrap().to_string(), "[::1]:80");
+    }
+}
