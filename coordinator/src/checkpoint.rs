@@ -1,6 +1,6 @@
-//! `checkpoint.bin`: a `lander run` saved between generations, so that a
-//! killed run goes on with `--resume` to the very results it would have
-//! had. The file is versioned and checksummed, and written whole or not at
+//! `checkpoint.bin`: a `lander run` saved between generations (a GA) or
+//! episodes (Q(λ)), so that a killed run goes on with `--resume` to the
+//! very results it would have had. The file is versioned and checksummed, and written whole or not at
 //! all (a temporary file, fsync, rename, fsync of the folder).
 //!
 //! Layout: the magic `LANDERCK`, the format version (u32), the CRC-32 of
@@ -9,6 +9,7 @@
 
 use crate::config::RunConfig;
 use crate::trial::TrialState;
+use lander_model::learn::LearnState;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -16,7 +17,8 @@ use std::path::{Path, PathBuf};
 /// The file's name in a run's folder.
 pub const FILE: &str = "checkpoint.bin";
 /// Bumped whenever the body's layout changes; other versions are refused.
-pub const FORMAT: u32 = 1;
+/// Format 2 added Q(λ) runs.
+pub const FORMAT: u32 = 2;
 const MAGIC: &[u8; 8] = b"LANDERCK";
 const HEADER: usize = 8 + 4 + 4 + 8;
 
@@ -24,7 +26,16 @@ const HEADER: usize = 8 + 4 + 4 + 8;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Checkpoint {
     pub config: RunConfig,
-    pub state: TrialState,
+    pub state: Saved,
+}
+
+/// Where a saved trial stands, by what it does.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Saved {
+    /// A GA trial (ga, guided), between generations.
+    Evolving(TrialState),
+    /// A Q(λ) trial, between episodes.
+    Learning(LearnState),
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -148,7 +159,7 @@ mod tests {
         let run = TrialRun::new(&cfg).unwrap();
         Checkpoint {
             config: cfg,
-            state: run.state().unwrap(),
+            state: Saved::Evolving(run.state().unwrap()),
         }
     }
 
@@ -182,7 +193,7 @@ mod tests {
         newer[8..12].copy_from_slice(&(FORMAT + 1).to_le_bytes());
         let e = said(&newer);
         assert!(
-            e.contains("format 2") && e.contains("run/checkpoint.bin"),
+            e.contains(&format!("format {}", FORMAT + 1)) && e.contains("run/checkpoint.bin"),
             "{e}"
         );
     }
@@ -213,14 +224,17 @@ mod tests {
                 if seen.len() == stop {
                     saved = Some(encode(&Checkpoint {
                         config: cfg.clone(),
-                        state: run.state().unwrap(),
+                        state: Saved::Evolving(run.state().unwrap()),
                     }));
                     return Err("stop".into());
                 }
                 Ok(())
             });
             let back = decode(Path::new("c"), &saved.unwrap()).unwrap();
-            let mut resumed = TrialRun::resume(&back.config, back.state).unwrap();
+            let Saved::Evolving(state) = back.state else {
+                panic!("a GA trial saved as another");
+            };
+            let mut resumed = TrialRun::resume(&back.config, state).unwrap();
             let end = finish_trial(&mut resumed, &mut ev, &mut |g, _| {
                 seen.push(g.clone());
                 Ok(())
@@ -234,13 +248,16 @@ mod tests {
     #[test]
     fn a_state_that_does_not_fit_its_configuration_is_refused() {
         let c = checkpoint();
+        let Saved::Evolving(state) = c.state else {
+            panic!("a GA trial saved as another");
+        };
         let mut other = c.config.clone();
         other.ga.population = 7;
-        let e = TrialRun::resume(&other, c.state.clone()).err().unwrap();
+        let e = TrialRun::resume(&other, state.clone()).err().unwrap();
         assert!(e.to_string().contains("6 genomes"), "{e}");
         let mut shorter = c.config.clone();
         shorter.ga.max_generations = 0;
-        let mut state = c.state;
+        let mut state = state;
         state.generation = 3;
         assert!(TrialRun::resume(&shorter, state).is_err());
     }

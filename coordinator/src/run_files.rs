@@ -3,7 +3,7 @@
 //! of every file a run owns in its folder, so a new run can clear them.
 
 use crate::config::RunConfig;
-use crate::trial::{Generation, TrialResult};
+use crate::trial::TrialResult;
 use lander_model::{format_genome, Method, Outcome};
 use serde::Serialize;
 use std::fs::File;
@@ -181,31 +181,38 @@ fn at(path: &Path) -> impl Fn(std::io::Error) -> WriteError + '_ {
     }
 }
 
-/// Appends one JSON line per generation, flushed as each arrives so an
+/// A run's log of one JSON line per generation (`generations.jsonl`) or
+/// per episode (`episodes.jsonl`), each flushed as it arrives so that an
 /// interrupted run keeps what it flew.
-pub struct GenerationLog {
+pub struct RunLog {
     path: PathBuf,
     out: BufWriter<File>,
 }
 
-impl GenerationLog {
-    pub fn create(dir: &Path) -> Result<GenerationLog, WriteError> {
+/// The log of the GA methods.
+pub const GENERATIONS: &str = "generations.jsonl";
+/// The log of Q(λ).
+pub const EPISODES: &str = "episodes.jsonl";
+
+impl RunLog {
+    /// A new log `file` in `dir`, replacing any.
+    pub fn create(dir: &Path, file: &str) -> Result<RunLog, WriteError> {
         std::fs::create_dir_all(dir).map_err(at(dir))?;
-        let path = dir.join("generations.jsonl");
+        let path = dir.join(file);
         let file = File::create(&path).map_err(at(&path))?;
-        Ok(GenerationLog {
+        Ok(RunLog {
             out: BufWriter::new(file),
             path,
         })
     }
 
-    /// The log of a resumed run: its first `keep` lines, the generations
-    /// its checkpoint had flown, and then the new ones. Lines past them,
-    /// written after the checkpoint, are cut, so that each generation is
-    /// in the log once. Fewer than `keep` lines is an error, and changes
-    /// nothing.
-    pub fn resume(dir: &Path, keep: u64) -> Result<GenerationLog, WriteError> {
-        let path = dir.join("generations.jsonl");
+    /// The log of a resumed run: its first `keep` lines, what its
+    /// checkpoint had flown, and then the new ones. Lines past them,
+    /// written after the checkpoint, are cut, so that each generation or
+    /// episode is in the log once. Fewer than `keep` lines is an error,
+    /// and changes nothing.
+    pub fn resume(dir: &Path, file: &str, keep: u64) -> Result<RunLog, WriteError> {
+        let path = dir.join(file);
         let text = std::fs::read(&path).map_err(at(&path))?;
         let mut end = 0;
         for _ in 0..keep {
@@ -213,7 +220,7 @@ impl GenerationLog {
                 Some(i) => end += i + 1,
                 None => {
                     let message = format!(
-                        "holds fewer generations than its checkpoint's {keep}; the folder is not one run's"
+                        "holds fewer lines than its checkpoint's {keep}; the folder is not one run's"
                     );
                     return Err(at(&path)(std::io::Error::other(message)));
                 }
@@ -226,11 +233,11 @@ impl GenerationLog {
         file.set_len(end as u64).map_err(at(&path))?;
         let mut out = BufWriter::new(file);
         out.seek(std::io::SeekFrom::End(0)).map_err(at(&path))?;
-        Ok(GenerationLog { out, path })
+        Ok(RunLog { out, path })
     }
 
-    pub fn write(&mut self, g: &Generation) -> Result<(), WriteError> {
-        serde_json::to_writer(&mut self.out, g).map_err(|e| at(&self.path)(e.into()))?;
+    pub fn write(&mut self, record: &impl Serialize) -> Result<(), WriteError> {
+        serde_json::to_writer(&mut self.out, record).map_err(|e| at(&self.path)(e.into()))?;
         self.out.write_all(b"\n").map_err(at(&self.path))?;
         self.out.flush().map_err(at(&self.path))
     }

@@ -1,4 +1,6 @@
-//! The lander as a Q(λ) task (SPEC §5), and one whole training trial.
+//! The lander as a Q(λ) task (SPEC §5), and one whole training trial:
+//! [`LearnRun`] steps it an episode at a time, and [`LearnState`] is where
+//! it stands between episodes, which is all a checkpoint needs.
 //!
 //! Every `decision_ticks` ticks the agent picks an action from the tile-coded
 //! features of `(x − pad_x, altitude, vx, vy, rot)`. The reward of a
@@ -11,6 +13,9 @@ use crate::sim::{Flight, Physics};
 use crate::stream::streams;
 use crate::tiles::TileCoder;
 use crate::{Env, EpisodeRecord, GuideParams, LearnParams, StreamKey, TrainResult, Training};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
 use std::ops::ControlFlow;
 
 pub struct LanderTask {
@@ -86,6 +91,148 @@ impl Task for LanderTask {
     }
 }
 
+/// A Q(λ) trial under way, stepped one episode at a time.
+pub struct LearnRun {
+    task: LanderTask,
+    agent: QLambda,
+    rng: ChaCha8Rng,
+    learn: LearnParams,
+    max_steps: u32,
+    /// Episodes flown so far.
+    flown: u32,
+    first_safe: Option<u32>,
+    /// Whether each of the last 100 episodes landed, oldest first.
+    recent: VecDeque<bool>,
+}
+
+/// Everything a Q(λ) trial needs to go on exactly as it would have, saved
+/// between episodes. Traces are cut as each episode starts, so none are
+/// kept; the generator is kept as its position in its keyed stream.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LearnState {
+    /// Episodes flown.
+    pub episodes: u32,
+    /// The learning stream's position, in 32-bit words.
+    pub rng_word: u128,
+    pub first_safe: Option<u32>,
+    /// Whether each of the last (at most 100) episodes landed, oldest first.
+    pub recent: Vec<bool>,
+    /// The agent's weights that are not +0.0, by index.
+    pub weights: Vec<(u32, f64)>,
+}
+
+impl LearnRun {
+    /// A fresh agent for `learn.episodes` episodes of `env`, its draws
+    /// keyed by `key`.
+    pub fn new(env: &Env, guide: &GuideParams, learn: &LearnParams, key: StreamKey) -> LearnRun {
+        let params = QParams {
+            alpha: learn.step_size / f64::from(learn.tilings),
+            gamma: learn.gamma,
+            lambda: learn.lambda,
+            epsilon: learn.epsilon,
+        };
+        LearnRun {
+            task: LanderTask::new(env, guide, learn),
+            agent: QLambda::new(1 << learn.memory_bits, params),
+            rng: key.rng(streams::LEARN),
+            learn: *learn,
+            max_steps: env.world.max_ticks.div_ceil(learn.decision_ticks.max(1)) + 1,
+            flown: 0,
+            first_safe: None,
+            recent: VecDeque::with_capacity(100),
+        }
+    }
+
+    /// The trial `new` would start, gone on from `state`. A state this
+    /// configuration could not have reached is refused, saying why.
+    pub fn resume(
+        env: &Env,
+        guide: &GuideParams,
+        learn: &LearnParams,
+        key: StreamKey,
+        state: &LearnState,
+    ) -> Result<LearnRun, String> {
+        let mut run = LearnRun::new(env, guide, learn, key);
+        if state.episodes > learn.episodes {
+            return Err(format!(
+                "{} episodes flown of a trial of {}",
+                state.episodes, learn.episodes
+            ));
+        }
+        if state.recent.len() > 100 || state.recent.len() > state.episodes as usize {
+            return Err(format!(
+                "{} recent episodes after {} flown",
+                state.recent.len(),
+                state.episodes
+            ));
+        }
+        if state
+            .first_safe
+            .is_some_and(|e| e == 0 || e > state.episodes)
+        {
+            return Err(format!(
+                "a first landing in episode {:?} of {}",
+                state.first_safe, state.episodes
+            ));
+        }
+        run.agent.set_weights(&state.weights)?;
+        run.rng.set_word_pos(state.rng_word);
+        run.flown = state.episodes;
+        run.first_safe = state.first_safe;
+        run.recent = state.recent.iter().copied().collect();
+        Ok(run)
+    }
+
+    /// Flies the next episode, learning as it goes; `None` once every
+    /// episode is flown.
+    pub fn step(&mut self) -> Option<EpisodeRecord> {
+        if self.flown >= self.learn.episodes {
+            return None;
+        }
+        self.flown += 1;
+        let episode = self.flown;
+        let stats = self
+            .agent
+            .episode(&mut self.task, &mut self.rng, self.max_steps);
+        if self.task.landed && self.first_safe.is_none() {
+            self.first_safe = Some(episode);
+        }
+        if self.recent.len() == 100 {
+            self.recent.pop_front();
+        }
+        self.recent.push_back(self.task.landed);
+        Some(EpisodeRecord {
+            episode,
+            reward: stats.reward,
+            ticks: self.task.flight.ticks,
+            decisions: stats.steps,
+            safe: self.task.landed,
+            epsilon: self.learn.epsilon,
+        })
+    }
+
+    /// Where the trial stands.
+    pub fn state(&self) -> LearnState {
+        LearnState {
+            episodes: self.flown,
+            rng_word: self.rng.get_word_pos(),
+            first_safe: self.first_safe,
+            recent: self.recent.iter().copied().collect(),
+            weights: self.agent.nonzero_weights(),
+        }
+    }
+
+    /// The summary of the episodes flown so far.
+    pub fn training(&self) -> Training {
+        let landed = self.recent.iter().filter(|&&l| l).count();
+        Training {
+            episodes: self.flown,
+            first_safe: self.first_safe,
+            landing_rate_last_100: landed as f64 / self.recent.len().max(1) as f64,
+        }
+    }
+}
+
 /// Trains a fresh agent for `learn.episodes` episodes of `env`, its draws
 /// keyed by `key`. `observe` sees every episode as it ends, and may break
 /// the training off after it; the summary then covers the episodes flown.
@@ -96,47 +243,13 @@ pub fn train(
     key: StreamKey,
     observe: &mut dyn FnMut(&EpisodeRecord) -> ControlFlow<()>,
 ) -> Training {
-    let mut task = LanderTask::new(env, guide, learn);
-    let params = QParams {
-        alpha: learn.step_size / f64::from(learn.tilings),
-        gamma: learn.gamma,
-        lambda: learn.lambda,
-        epsilon: learn.epsilon,
-    };
-    let mut agent = QLambda::new(1 << learn.memory_bits, params);
-    let mut rng = key.rng(streams::LEARN);
-    let max_steps = env.world.max_ticks.div_ceil(learn.decision_ticks.max(1)) + 1;
-    let mut first_safe = None;
-    let mut recent = std::collections::VecDeque::with_capacity(100);
-    let mut flown = 0;
-    for episode in 1..=learn.episodes {
-        flown = episode;
-        let stats = agent.episode(&mut task, &mut rng, max_steps);
-        if task.landed && first_safe.is_none() {
-            first_safe = Some(episode);
-        }
-        if recent.len() == 100 {
-            recent.pop_front();
-        }
-        recent.push_back(task.landed);
-        let seen = observe(&EpisodeRecord {
-            episode,
-            reward: stats.reward,
-            ticks: task.flight.ticks,
-            decisions: stats.steps,
-            safe: task.landed,
-            epsilon: learn.epsilon,
-        });
-        if seen.is_break() {
+    let mut run = LearnRun::new(env, guide, learn, key);
+    while let Some(record) = run.step() {
+        if observe(&record).is_break() {
             break;
         }
     }
-    let landed = recent.iter().filter(|&&l| l).count();
-    Training {
-        episodes: flown,
-        first_safe,
-        landing_rate_last_100: landed as f64 / recent.len().max(1) as f64,
-    }
+    run.training()
 }
 
 /// A whole Q(λ) trial: everything [`run_training`] needs, so that any
@@ -264,5 +377,56 @@ mod tests {
         );
         assert!((0.0..=1.0).contains(&a.landing_rate_last_100));
         assert!(seen.iter().all(|e| e.ticks > 0 && e.reward.is_finite()));
+    }
+
+    #[test]
+    fn a_trial_resumed_from_its_state_goes_on_bit_for_bit() {
+        let env = test_env(150.0, 200.0);
+        let (guide, key) = (GuideParams::default(), StreamKey::new(3, 2, 0, 0));
+        let learn = LearnParams {
+            episodes: 60,
+            ..LearnParams::default()
+        };
+        let mut whole = LearnRun::new(&env, &guide, &learn, key);
+        let records: Vec<EpisodeRecord> = std::iter::from_fn(|| whole.step()).collect();
+        for cut in [0, 1, 17, 59, 60] {
+            let mut first = LearnRun::new(&env, &guide, &learn, key);
+            for _ in 0..cut {
+                first.step();
+            }
+            let state = first.state();
+            assert!(!state.weights.is_empty() || cut == 0);
+            let mut resumed = LearnRun::resume(&env, &guide, &learn, key, &state).unwrap();
+            assert_eq!(resumed.state(), state, "cut {cut}");
+            let rest: Vec<EpisodeRecord> = std::iter::from_fn(|| resumed.step()).collect();
+            assert_eq!(rest, records[cut..], "cut {cut}");
+            assert_eq!(resumed.training(), whole.training(), "cut {cut}");
+            assert_eq!(resumed.state(), whole.state(), "cut {cut}");
+        }
+    }
+
+    #[test]
+    fn states_no_trial_could_reach_are_refused() {
+        let env = test_env(150.0, 200.0);
+        let (guide, key) = (GuideParams::default(), StreamKey::new(3, 2, 0, 0));
+        let learn = LearnParams {
+            episodes: 10,
+            ..LearnParams::default()
+        };
+        let mut run = LearnRun::new(&env, &guide, &learn, key);
+        run.step();
+        let good = run.state();
+        let bad = |change: &dyn Fn(&mut LearnState)| {
+            let mut s = good.clone();
+            change(&mut s);
+            LearnRun::resume(&env, &guide, &learn, key, &s)
+                .err()
+                .unwrap()
+        };
+        assert!(bad(&|s| s.episodes = 11).contains("of a trial of 10"));
+        assert!(bad(&|s| s.recent = vec![true; 2]).contains("2 recent episodes after 1"));
+        assert!(bad(&|s| s.first_safe = Some(5)).contains("first landing"));
+        assert!(bad(&|s| s.weights.push((1 << 30, 1.0))).contains("past the agent's"));
+        assert!(bad(&|s| s.weights.push((3, f64::NAN))).contains("weight 3 is NaN"));
     }
 }

@@ -96,6 +96,39 @@ impl QLambda {
         self.weights[i]
     }
 
+    /// Every weight that is not +0.0, as `(index, weight)` in index order:
+    /// what a checkpoint keeps of the agent between episodes, where every
+    /// trace is cut anyway. (-0.0 is kept, so that the weights come back
+    /// bit for bit.)
+    pub fn nonzero_weights(&self) -> Vec<(u32, f64)> {
+        self.weights
+            .iter()
+            .enumerate()
+            .filter(|(_, w)| w.to_bits() != 0)
+            .map(|(i, &w)| (i as u32, w))
+            .collect()
+    }
+
+    /// Sets the weights from [`QLambda::nonzero_weights`]' list; the rest
+    /// are zero. Refuses an index past the weights or a weight that is not
+    /// finite, saying which.
+    pub fn set_weights(&mut self, weights: &[(u32, f64)]) -> Result<(), String> {
+        self.weights.iter_mut().for_each(|w| *w = 0.0);
+        for &(i, w) in weights {
+            let Some(slot) = self.weights.get_mut(i as usize) else {
+                return Err(format!(
+                    "weight {i} is past the agent's {} weights",
+                    self.weights.len()
+                ));
+            };
+            if !w.is_finite() {
+                return Err(format!("weight {i} is {w}"));
+            }
+            *slot = w;
+        }
+        Ok(())
+    }
+
     /// The non-zero traces.
     pub fn traces(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
         self.traced.iter().copied()

@@ -285,3 +285,75 @@ fn bad_checkpoints_are_refused_and_nothing_is_overwritten() {
     assert!(stderr(&fresh).contains("--resume"), "{}", stderr(&fresh));
     assert_eq!(fs::read(out.join("generations.jsonl")).unwrap(), log);
 }
+
+/// A Q(λ) trial of `episodes` episodes, checkpointed every `every`.
+fn qlearning<'a>(out: &'a str, episodes: &'a str, every: &'a str) -> Vec<&'a str> {
+    let mut a = vec!["run", "--method", "qlearning", "--seed", "4", "--json"];
+    a.extend([
+        "--episodes",
+        episodes,
+        "--checkpoint-every",
+        every,
+        "--out",
+        out,
+    ]);
+    a
+}
+
+/// What must not differ between a Q(λ) run and its resumed twin.
+fn learned(dir: &Path, out: &Output) -> (Vec<u8>, Value, Value) {
+    assert!(out.status.success(), "{}", stderr(out));
+    let summary: Value = serde_json::from_slice(&out.stdout).expect("--json prints JSON");
+    let file: Value = serde_json::from_slice(&fs::read(dir.join("summary.json")).unwrap()).unwrap();
+    (
+        fs::read(dir.join("episodes.jsonl")).unwrap(),
+        without_wall_time(summary),
+        without_wall_time(file),
+    )
+}
+
+#[test]
+fn a_killed_or_stopped_qlearning_run_resumes_to_the_outputs_of_one_never_stopped() {
+    let dir = tempfile::tempdir().unwrap();
+    let whole_dir = dir.path().join("whole");
+    let whole_s = whole_dir.to_str().unwrap();
+    let whole = learned(&whole_dir, &lander(&qlearning(whole_s, "60000", "0")));
+    for (signal, every) in [("KILL", "2000"), ("TERM", "0")] {
+        let out = dir.path().join(format!("run-{signal}"));
+        let out_s = out.to_str().unwrap();
+        let child = Command::new(binary("lander"))
+            .args(qlearning(out_s, "60000", every))
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        assert!(
+            soon(|| lines_in(&out.join("episodes.jsonl")) >= 9000),
+            "{signal}"
+        );
+        lander_tests::signal(child.id(), signal);
+        let stopped = child.wait_with_output().unwrap();
+        assert!(
+            !stopped.status.success(),
+            "{signal}: the run finished first"
+        );
+        let saved = out.join("checkpoint.bin");
+        assert!(saved.exists(), "{signal}: {}", stderr(&stopped));
+        // The log may run past the checkpoint; resuming cuts it back.
+        let over_workers = lander(&["run", "--resume", out_s, "--workers", "1"]);
+        assert!(!over_workers.status.success());
+        assert!(
+            stderr(&over_workers).contains("goes on in this process"),
+            "{}",
+            stderr(&over_workers)
+        );
+        let resumed = lander(&["run", "--resume", out_s, "--json"]);
+        assert!(
+            stderr(&resumed).contains("resuming"),
+            "{signal}: {}",
+            stderr(&resumed)
+        );
+        assert_eq!(learned(&out, &resumed), whole, "{signal}");
+        assert!(!saved.exists(), "a finished run keeps no checkpoint");
+    }
+}

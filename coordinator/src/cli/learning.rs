@@ -1,21 +1,18 @@
 //! `lander run --method qlearning`: one Q(λ) trial, in-process with a
-//! progress bar over episodes, or as one `Train` job on a worker, written
-//! to a folder.
+//! progress bar over episodes and a checkpoint every `--checkpoint-every`
+//! episodes and when stopped, or as one `Train` job on a worker (not
+//! checkpointed: the worker holds the agent), written to a folder.
 
-use anyhow::Context;
+use anyhow::{bail, Context};
 use indicatif::{ProgressBar, ProgressStyle};
+use lander_coordinator::checkpoint::{self, Checkpoint, Saved};
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::{Backend, EvalError};
-use lander_coordinator::run_files::write_json;
+use lander_coordinator::run_files::{write_json, RunLog, EPISODES};
 use lander_coordinator::stop::Stop;
-use lander_model::learn::train;
-use lander_model::EpisodeRecord;
-use lander_model::StreamKey;
-use lander_model::TrainJob;
+use lander_model::learn::{LearnRun, LearnState};
+use lander_model::{StreamKey, TrainJob, Training};
 use serde::Serialize;
-use std::fs::File;
-use std::io::{BufWriter, Write};
-use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
 
@@ -35,19 +32,142 @@ struct LearnSummary {
     wall_s: f64,
 }
 
+/// A Q(λ) trial from its start: in-process when `pool` is `None`,
+/// checkpointed every `every` episodes (0: only when stopped), else as
+/// one job on the pool.
 pub fn learn(
     cfg: &RunConfig,
     out: &Path,
     json: bool,
     pool: Option<Box<dyn Backend>>,
+    every: u64,
     stop: &Stop,
 ) -> anyhow::Result<()> {
+    let key = StreamKey::new(cfg.seed, cfg.trial, 0, 0);
     let env = cfg.env(0);
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let log_path = out.join("episodes.jsonl");
-    let mut log = BufWriter::new(
-        File::create(&log_path).with_context(|| format!("creating {}", log_path.display()))?,
+    let started = Instant::now();
+    let training = match pool {
+        None => {
+            let run = LearnRun::new(&env, &cfg.guided, &cfg.qlearning, key);
+            let log = RunLog::create(out, EPISODES)?;
+            in_process(cfg, out, run, log, every, stop)?
+        }
+        Some(pool) => on_a_worker(cfg, out, pool)?,
+    };
+    finish(cfg, out, json, &training, started)
+}
+
+/// `lander run --resume DIR` of a Q(λ) trial saved at `state`: its log cut
+/// back to the checkpoint, and on in-process to the end.
+pub fn resume(
+    cfg: &RunConfig,
+    dir: &Path,
+    json: bool,
+    state: &LearnState,
+    every: u64,
+    stop: &Stop,
+) -> anyhow::Result<()> {
+    let key = StreamKey::new(cfg.seed, cfg.trial, 0, 0);
+    let run =
+        LearnRun::resume(&cfg.env(0), &cfg.guided, &cfg.qlearning, key, state).map_err(|e| {
+            anyhow::anyhow!(
+                "{}: the saved trial does not fit its configuration: {e}",
+                dir.join(checkpoint::FILE).display()
+            )
+        })?;
+    let log = RunLog::resume(dir, EPISODES, u64::from(state.episodes))?;
+    tracing::info!(
+        "resuming {} after episode {}",
+        dir.display(),
+        state.episodes
     );
+    let started = Instant::now();
+    let training = in_process(cfg, dir, run, log, every, stop)?;
+    finish(cfg, dir, json, &training, started)
+}
+
+/// Flies `run`'s remaining episodes here, logging each and saving a
+/// checkpoint every `every` episodes and when stopped.
+fn in_process(
+    cfg: &RunConfig,
+    out: &Path,
+    mut run: LearnRun,
+    mut log: RunLog,
+    every: u64,
+    stop: &Stop,
+) -> anyhow::Result<Training> {
+    let bar = bar(cfg);
+    let save = |run: &LearnRun, log: &mut RunLog| -> anyhow::Result<()> {
+        log.sync()?;
+        checkpoint::save(
+            out,
+            &Checkpoint {
+                config: cfg.clone(),
+                state: Saved::Learning(run.state()),
+            },
+        )?;
+        Ok(())
+    };
+    bar.set_position(u64::from(run.training().episodes));
+    while let Some(e) = run.step() {
+        log.write(&e)?;
+        bar.set_position(u64::from(e.episode));
+        if e.safe || e.episode % 100 == 0 {
+            let rate = run.training().landing_rate_last_100;
+            bar.set_message(format!("landing rate over the last 100 {rate:.2}"));
+        }
+        if every > 0 && u64::from(e.episode) % every == 0 {
+            save(&run, &mut log)?;
+        }
+        // The trial looks at `stop` after every episode, as a pool does
+        // between its sleeps; between episodes the trial is whole.
+        if stop.asked() && run.training().episodes < cfg.qlearning.episodes {
+            bar.finish_and_clear();
+            let hint = match save(&run, &mut log) {
+                Ok(()) => format!(
+                    "; saved after episode {}: `lander run --resume {}` goes on",
+                    e.episode,
+                    out.display()
+                ),
+                Err(e) => format!("; saving checkpoint.bin failed: {e:#}"),
+            };
+            return Err(anyhow::Error::new(EvalError::Interrupted)
+                .context(format!("the trial stopped{hint}")));
+        }
+    }
+    bar.finish_and_clear();
+    log.sync()?;
+    Ok(run.training())
+}
+
+/// The whole trial as one job on a worker; its episodes are logged when
+/// it returns.
+fn on_a_worker(
+    cfg: &RunConfig,
+    out: &Path,
+    mut pool: Box<dyn Backend>,
+) -> anyhow::Result<Training> {
+    let job = TrainJob {
+        env: cfg.env(0),
+        guide: cfg.guided,
+        learn: cfg.qlearning,
+        key: StreamKey::new(cfg.seed, cfg.trial, 0, 0),
+    };
+    let bar = bar(cfg);
+    let result = pool
+        .train(&[job], &mut |_, _| ())?
+        .pop()
+        .context("the pool returned no result for the trial")?;
+    bar.finish_and_clear();
+    let mut log = RunLog::create(out, EPISODES)?;
+    for e in &result.episodes {
+        log.write(e)?;
+    }
+    log.sync()?;
+    Ok(result.training)
+}
+
+fn bar(cfg: &RunConfig) -> ProgressBar {
     let bar =
         lander_telemetry::log::bars().add(ProgressBar::new(u64::from(cfg.qlearning.episodes)));
     bar.set_style(
@@ -55,61 +175,19 @@ pub fn learn(
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
-    let started = Instant::now();
-    let key = StreamKey::new(cfg.seed, cfg.trial, 0, 0);
-    let mut landings = 0u32;
-    let mut failure = None;
-    let mut record = |e: &EpisodeRecord| {
-        landings += u32::from(e.safe);
-        bar.set_position(u64::from(e.episode));
-        bar.set_message(format!("landings {landings}"));
-        let line = serde_json::to_string(e).map(|l| l + "\n");
-        if let Err(err) = line
-            .map_err(std::io::Error::from)
-            .and_then(|l| log.write_all(l.as_bytes()))
-        {
-            failure.get_or_insert(err);
-        }
-    };
-    let training = match pool {
-        None => {
-            // In-process, the trial looks at `stop` after every episode, as
-            // a pool does between its sleeps.
-            let mut until_stopped = |e: &EpisodeRecord| {
-                record(e);
-                if stop.asked() {
-                    ControlFlow::Break(())
-                } else {
-                    ControlFlow::Continue(())
-                }
-            };
-            let training = train(&env, &cfg.guided, &cfg.qlearning, key, &mut until_stopped);
-            if training.episodes < cfg.qlearning.episodes {
-                return Err(EvalError::Interrupted.into());
-            }
-            training
-        }
-        Some(mut pool) => {
-            let job = TrainJob {
-                env,
-                guide: cfg.guided,
-                learn: cfg.qlearning,
-                key,
-            };
-            let result = pool
-                .train(&[job], &mut |_, _| ())?
-                .pop()
-                .context("the pool returned no result for the trial")?;
-            result.episodes.iter().for_each(&mut record);
-            result.training
-        }
-    };
-    bar.finish_and_clear();
-    if let Some(err) = failure {
-        return Err(err).with_context(|| format!("writing {}", log_path.display()));
-    }
-    log.flush()
-        .with_context(|| format!("writing {}", log_path.display()))?;
+    bar
+}
+
+/// Writes the summary, removes the checkpoint of the finished run, and
+/// reports.
+fn finish(
+    cfg: &RunConfig,
+    out: &Path,
+    json: bool,
+    training: &Training,
+    started: Instant,
+) -> anyhow::Result<()> {
+    let env = cfg.env(0);
     let summary = LearnSummary {
         method: cfg.method.name(),
         seed: cfg.seed,
@@ -122,8 +200,20 @@ pub fn learn(
         landing_rate_last_100: training.landing_rate_last_100,
         wall_s: started.elapsed().as_secs_f64(),
     };
+    if training.episodes < cfg.qlearning.episodes {
+        bail!(
+            "the trial ended after {} of {} episodes",
+            training.episodes,
+            cfg.qlearning.episodes
+        );
+    }
     let summary_path = out.join("summary.json");
     write_json(&summary_path, &summary)?;
+    // The run is over; nothing is left to resume.
+    let saved = out.join(checkpoint::FILE);
+    if saved.exists() {
+        std::fs::remove_file(&saved).with_context(|| format!("removing {}", saved.display()))?;
+    }
     if json {
         println!("{}", serde_json::to_string(&summary)?);
     } else {
@@ -138,7 +228,7 @@ pub fn learn(
         );
         println!(
             "wrote {} and {}",
-            log_path.display(),
+            out.join(EPISODES).display(),
             summary_path.display()
         );
     }
