@@ -91,6 +91,10 @@ pub struct BenchArgs {
     /// [default: as `lander run`].
     #[arg(long, value_name = "MICROSECONDS", value_parser = clap::value_parser!(u64).range(0..=MAX_SPIN_US))]
     spin_us: Option<u64>,
+    /// The worker-process modes check this share of answered chunks, 0 to
+    /// 1, as `lander run --verify`, to measure what checking costs.
+    #[arg(long, value_name = "RATE", default_value_t = 0.0)]
+    verify: f64,
     /// With --stress: worker kills per second, on average.
     #[arg(long, value_name = "PER_S", default_value_t = 2.0)]
     kill_rate: f64,
@@ -126,6 +130,12 @@ fn pool_options_for(
     if let Some(us) = args.spin_us {
         opts.spin = Duration::from_micros(us);
     }
+    anyhow::ensure!(
+        (0.0..=1.0).contains(&args.verify),
+        "--verify must be a share from 0 to 1 (got {})",
+        args.verify
+    );
+    opts.verify = args.verify;
     Ok(opts)
 }
 
