@@ -1,6 +1,8 @@
 //! `--verify`: a worker that answers well-formed but wrong fitness is
-//! caught by the in-process check of its chunks, dropped for good, and its
-//! chunks flown again, so the run's results are the same as in-process. Real processes: a coordinator and two attached iceoryx2
+//! caught by the in-process check of its chunks (its first answer is always
+//! checked), dropped for good, and its chunks flown again, so the run's
+//! results are the same as in-process; without `--verify` the same liar
+//! changes them. Real processes: a coordinator and two attached iceoryx2
 //! workers, one of them started with the hidden `--lie`.
 
 use lander_tests::{json_out, lander, stderr, without_wall_time, Iox};
@@ -10,33 +12,46 @@ use std::process::Stdio;
 
 const RUN: [&str; 7] = ["run", "--method", "guided", "--seed", "1", "--trial", "16"];
 
-#[test]
-fn a_lying_worker_is_caught_dropped_and_its_work_done_again() {
-    let dir = tempfile::tempdir().unwrap();
-    let reference = dir.path().join("inproc");
-    let mut args = RUN.to_vec();
-    args.extend(["--json", "--out", reference.to_str().unwrap()]);
-    let expected = without_wall_time(json_out(&lander(&args)));
+const LIAR: &str = "00000000000bad1d";
+const HONEST: &str = "000000000000600d";
 
-    let iox = Iox::new("verify");
-    let run_id = format!("verify{}", std::process::id());
-    let out = dir.path().join("attached");
+/// What a run left: its summary, generations.jsonl, best.json, what it
+/// said, and its events.
+struct Ran {
+    summary: Value,
+    generations: Vec<u8>,
+    best: Vec<u8>,
+    said: String,
+    events: Vec<Value>,
+}
+
+fn ran(out: &std::path::Path, done: &std::process::Output) -> Ran {
+    Ran {
+        summary: without_wall_time(json_out(done)),
+        generations: fs::read(out.join("generations.jsonl")).unwrap(),
+        best: fs::read(out.join("best.json")).unwrap(),
+        said: stderr(done),
+        events: lander_tests::events(out),
+    }
+}
+
+/// RUN in-process.
+fn honest_run(dir: &std::path::Path) -> Ran {
+    let out = dir.join("inproc");
     let mut args = RUN.to_vec();
-    args.extend([
-        "--json",
-        "--out",
-        out.to_str().unwrap(),
-        "--attach",
-        "--min-workers",
-        "2",
-        "--run-id",
-        &run_id,
-        // Every answer checked: at a lower rate a liar's unsampled answers
-        // of the generations before it is caught stand, and the results
-        // may differ (docs/reliability.md).
-        "--verify",
-        "1",
-    ]);
+    args.extend(["--json", "--out", out.to_str().unwrap()]);
+    ran(&out, &lander(&args))
+}
+
+/// RUN over two attached workers, the liar and an honest one, checked at
+/// `rate`.
+fn with_a_liar(dir: &std::path::Path, rate: &str) -> Ran {
+    let iox = Iox::new(&format!("verify{}", rate.replace('.', "_")));
+    let run_id = format!("verify{}{}", rate.replace('.', ""), std::process::id());
+    let out = dir.join(format!("attached-{rate}"));
+    let mut args = RUN.to_vec();
+    args.extend(["--json", "--out", out.to_str().unwrap(), "--attach"]);
+    args.extend(["--min-workers", "2", "--run-id", &run_id, "--verify", rate]);
     let coordinator = iox
         .command("lander")
         .args(&args)
@@ -44,8 +59,6 @@ fn a_lying_worker_is_caught_dropped_and_its_work_done_again() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let liar_id = "00000000000bad1d";
-    let honest_id = "000000000000600d";
     let worker = |id: &str, lie: bool| {
         let mut cmd = iox.command("lander-worker");
         cmd.args(["--run", &run_id, "--id", id]);
@@ -57,44 +70,67 @@ fn a_lying_worker_is_caught_dropped_and_its_work_done_again() {
             .spawn()
             .unwrap()
     };
-    let mut liar = worker(liar_id, true);
-    let mut honest = worker(honest_id, false);
+    let mut liar = worker(LIAR, true);
+    let mut honest = worker(HONEST, false);
     let done = coordinator.wait_with_output().unwrap();
-    let said = stderr(&done);
-    assert_eq!(without_wall_time(json_out(&done)), expected, "{said}");
-    assert_eq!(
-        fs::read(out.join("generations.jsonl")).unwrap(),
-        fs::read(reference.join("generations.jsonl")).unwrap()
-    );
-    assert_eq!(
-        fs::read(out.join("best.json")).unwrap(),
-        fs::read(reference.join("best.json")).unwrap()
-    );
-    assert!(
-        said.contains(&format!("refusing worker {liar_id}"))
-            && said.contains("differs from this host's (--verify)"),
-        "{said}"
-    );
-    assert!(
-        !said.contains(&format!("refusing worker {honest_id}")),
-        "{said}"
-    );
-    // events.jsonl names the liar, and only the liar, as refused, and
-    // its chunks as flown again.
-    let events = lander_tests::events(&out);
-    let refused: Vec<&Value> = events
-        .iter()
-        .filter(|e| e["event"] == "worker_refused")
-        .collect();
-    assert_eq!(refused.len(), 1, "{events:?}");
-    assert_eq!(refused[0]["worker"], liar_id);
-    assert!(refused[0]["why"].as_str().unwrap().contains("(--verify)"));
-    assert!(events.iter().any(|e| e["event"] == "chunks_redispatched"
-        && e["worker"] == liar_id
-        && e["why"] == "refused"));
+    assert!(done.status.success(), "{}", stderr(&done));
     // Both workers end: the liar told to leave, the honest one at the end.
     liar.wait().unwrap();
     honest.wait().unwrap();
+    ran(&out, &done)
+}
+
+#[test]
+fn a_lying_worker_is_caught_dropped_and_its_work_done_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let expected = honest_run(dir.path());
+    for rate in ["0.2", "1"] {
+        let got = with_a_liar(dir.path(), rate);
+        let said = &got.said;
+        assert_eq!(got.summary, expected.summary, "{rate}: {said}");
+        assert!(
+            got.generations == expected.generations,
+            "{rate}: generations.jsonl differs"
+        );
+        assert_eq!(got.best, expected.best, "{rate}");
+        assert!(
+            said.contains(&format!("refusing worker {LIAR}"))
+                && said.contains("differs from this host's (--verify)"),
+            "{rate}: {said}"
+        );
+        assert!(
+            !said.contains(&format!("refusing worker {HONEST}")),
+            "{said}"
+        );
+        // events.jsonl names the liar, and only the liar, as refused, and
+        // its chunks as flown again.
+        let refused: Vec<&Value> = got
+            .events
+            .iter()
+            .filter(|e| e["event"] == "worker_refused")
+            .collect();
+        assert_eq!(refused.len(), 1, "{rate}: {:?}", got.events);
+        assert_eq!(refused[0]["worker"], LIAR);
+        assert!(refused[0]["why"].as_str().unwrap().contains("(--verify)"));
+        assert!(got
+            .events
+            .iter()
+            .any(|e| e["event"] == "chunks_redispatched"
+                && e["worker"] == LIAR
+                && e["why"] == "refused"));
+    }
+}
+
+#[test]
+fn without_verify_the_liar_changes_the_results() {
+    let dir = tempfile::tempdir().unwrap();
+    let expected = honest_run(dir.path());
+    let got = with_a_liar(dir.path(), "0");
+    assert!(
+        got.generations != expected.generations,
+        "the liar went unnoticed and changed nothing: the lie is too weak to test --verify"
+    );
+    assert!(!got.events.iter().any(|e| e["event"] == "worker_refused"));
 }
 
 #[test]

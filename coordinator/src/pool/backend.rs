@@ -38,7 +38,7 @@ impl<T: Transport> Trainer for Pool<T> {
             .collect();
         self.run_chunks(
             &chunks,
-            |i, body| decode_training(body, trials[i].learn.episodes).map_err(|e| e.to_string()),
+            |i, body, _| decode_training(body, trials[i].learn.episodes).map_err(|e| e.to_string()),
             done,
         )
     }
@@ -80,11 +80,11 @@ impl<T: Transport> Evaluator for Pool<T> {
         let rate = self.opts.verify;
         let results = self.run_chunks(
             &chunks,
-            |i, body| {
+            |i, body, first| {
                 let (_, range, length, pass) = &spans[i];
                 let result = ChunkResult::decode(body, *pass, range.len(), *length)
                     .map_err(|e| e.to_string())?;
-                if verify::sampled(&chunks[i].header, rate) {
+                if verify::due(&chunks[i].header, rate, first) {
                     verify::check(&chunks[i], &result)?;
                 }
                 Ok(result)

@@ -122,6 +122,9 @@ pub struct Pool<T: Transport> {
     busy: std::time::Duration,
     /// The host each connected worker announced, by worker id.
     hosts: HashMap<u64, String>,
+    /// Workers that have had an answer taken (`--verify` checks every
+    /// worker's first).
+    vetted: HashSet<u64>,
     /// Where worker events go: the log, events.jsonl, the metrics.
     telemetry: Telemetry,
 }

@@ -55,13 +55,14 @@ impl<T: Transport> Pool<T> {
     }
 
     /// Runs every chunk on the workers and returns the answers in chunk
-    /// order. `decode` checks and decodes the answer to chunk `i`; an
-    /// answer it refuses costs its worker the link, and the chunk runs
-    /// elsewhere.
+    /// order. `decode(i, body, first)` checks and decodes the answer to
+    /// chunk `i`, where `first` says that its worker has had no answer
+    /// taken yet; an answer it refuses costs its worker the link, and the
+    /// chunk runs elsewhere.
     pub fn run_chunks<R>(
         &mut self,
         chunks: &[Chunk],
-        decode: impl Fn(usize, &[u8]) -> Result<R, String>,
+        decode: impl Fn(usize, &[u8], bool) -> Result<R, String>,
         mut finished: impl FnMut(usize, &R),
     ) -> Result<Vec<R>, EvalError> {
         self.await_first_workers()?;
@@ -96,8 +97,9 @@ impl<T: Transport> Pool<T> {
                     todo.push_front(a.chunk);
                     continue;
                 }
-                match decode(a.chunk, &a.body) {
+                match decode(a.chunk, &a.body, !self.vetted.contains(&worker)) {
                     Ok(value) => {
+                        self.vetted.insert(worker);
                         finished(a.chunk, &value);
                         done[a.chunk] = Some(value);
                         owner[a.chunk] = Some(worker);

@@ -5,12 +5,21 @@
 //! drops it for good and flies again every chunk it answered in the
 //! generation (`Pool::run_chunks`).
 //!
-//! Which chunks are checked depends only on the chunk's stream key and
-//! first genome, never on timing or on who answered, so the same run checks
-//! the same chunks every time.
+//! The sample depends only on the chunk's stream key and first genome,
+//! never on timing or on who answered, so the same run samples the same
+//! chunks every time. Besides the sample, each worker's first answer is
+//! checked: a worker wrong on every answer is then caught before any of
+//! its answers is taken.
 
 use super::schedule::Chunk;
 use lander_protocol::wire::{ChunkResult, EvalJob, JobHeader, KIND_EVALUATE};
+
+/// Whether the answer to the chunk under `header` is checked: with `rate`
+/// above 0, when the chunk is in the sample or the answer is its worker's
+/// `first`.
+pub(super) fn due(header: &JobHeader, rate: f64, first: bool) -> bool {
+    header.kind == KIND_EVALUATE && rate > 0.0 && (first || sampled(header, rate))
+}
 
 /// Whether the chunk under `header` is one of the `rate` share checked.
 pub(super) fn sampled(header: &JobHeader, rate: f64) -> bool {
@@ -86,5 +95,21 @@ mod tests {
         assert_eq!(sampled(&h, 0.5), sampled(&h, 0.5));
         assert!(!sampled(&h, 0.0));
         assert!(sampled(&h, 1.0));
+    }
+
+    #[test]
+    fn a_workers_first_answer_is_checked_at_any_rate_above_zero() {
+        let unsampled = (0..1000)
+            .map(|i| header(i, 0))
+            .find(|h| !sampled(h, 0.01))
+            .unwrap();
+        assert!(!due(&unsampled, 0.01, false));
+        assert!(due(&unsampled, 0.01, true));
+        assert!(!due(&unsampled, 0.0, true), "rate 0 checks nothing");
+        let training = JobHeader {
+            kind: lander_protocol::wire::KIND_TRAIN,
+            ..unsampled
+        };
+        assert!(!due(&training, 1.0, true), "training jobs are not checked");
     }
 }

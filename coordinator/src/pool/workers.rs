@@ -51,6 +51,7 @@ impl<T: Transport> Pool<T> {
             timings: None,
             busy: std::time::Duration::ZERO,
             hosts: HashMap::new(),
+            vetted: HashSet::new(),
             telemetry,
             opts,
         };
