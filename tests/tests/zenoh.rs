@@ -1,6 +1,7 @@
 //! The evaluator pool over zenoh between real processes and real sessions
 //! on loopback: identical results to iceoryx2 and in-process, no lost work
-//! when a worker dies, and strangers without credentials kept out.
+//! when a worker dies, strangers without credentials kept out, and
+//! malformed frames refused by a worker that serves on.
 
 use lander_tests::{
     json_out, lines_in, signal, stderr, wait_until, without_wall_time, worker_children, Iox,
@@ -353,5 +354,84 @@ fn bad_zenoh_options_are_refused() {
         stderr(&open).contains("would admit anyone"),
         "{}",
         stderr(&open)
+    );
+}
+
+#[test]
+fn malformed_frames_are_refused_counted_and_the_worker_serves_on() {
+    use lander_protocol::envelope::{encode_result, MAGIC};
+    use lander_protocol::net::{coordinator_config, NetOptions, RunKeys};
+    use lander_protocol::wire::ResultHeader;
+    use zenoh::Wait;
+    let ep = endpoint(7);
+    let options = NetOptions {
+        listen: vec![ep.clone()],
+        ..NetOptions::default()
+    };
+    let session = zenoh::open(coordinator_config(&options).unwrap())
+        .wait()
+        .unwrap();
+    let iox = Iox::new("frames");
+    let run_id = format!("frames{}", std::process::id());
+    let metrics = format!("127.0.0.1:{}", lander_tests::free_port());
+    let worker = zenoh_worker(&iox, &run_id, &ep)
+        .args(["--id", "f00d", "--metrics", &metrics])
+        .spawn()
+        .unwrap();
+    let jobs = RunKeys::new(&run_id).jobs(0xf00d);
+    let mut truncated = MAGIC.to_vec();
+    truncated.extend([1, 0]);
+    let frames: Vec<Vec<u8>> = vec![
+        Vec::new(),
+        b"not a frame at all".to_vec(),
+        truncated,
+        // Well formed, but a result where a job belongs.
+        encode_result(&ResultHeader::default(), b"x"),
+    ];
+    // The first frame is sent again until the worker's queryable answers.
+    let refused = |frame: &[u8]| -> Option<String> {
+        let replies = session.get(&jobs).payload(frame.to_vec()).wait().ok()?;
+        let reply = replies
+            .recv_timeout(std::time::Duration::from_secs(5))
+            .ok()??;
+        match reply.result() {
+            Ok(_) => Some("answered".into()),
+            Err(e) => Some(
+                e.payload()
+                    .try_to_string()
+                    .map_or(String::new(), |s| s.to_string()),
+            ),
+        }
+    };
+    let mut first = None;
+    assert!(
+        wait_until(30, || {
+            first = refused(&frames[0]);
+            first.is_some()
+        }),
+        "the worker never answered"
+    );
+    let mut why = vec![first.unwrap()];
+    for frame in &frames[1..] {
+        why.push(refused(frame).expect("an answer to each frame"));
+    }
+    assert!(
+        why.iter().all(|w| w != "answered" && !w.is_empty()),
+        "{why:?}"
+    );
+    let text = lander_tests::http_get(&metrics, "/metrics").unwrap();
+    assert!(
+        text.contains("lander_worker_rejected_frames_total 4"),
+        "{text}"
+    );
+    // Still serving: a fifth frame gets its refusal too.
+    assert!(refused(b"again").is_some_and(|w| w != "answered"));
+    signal(worker.id(), "TERM");
+    let out = worker.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let said = stderr(&out);
+    assert!(
+        said.contains("rejected frame #1") && said.contains("rejected frame #5"),
+        "{said}"
     );
 }
