@@ -357,3 +357,76 @@ fn a_killed_or_stopped_qlearning_run_resumes_to_the_outputs_of_one_never_stopped
         assert!(!saved.exists(), "a finished run keeps no checkpoint");
     }
 }
+
+#[test]
+fn a_qlearning_run_on_workers_killed_resumes_from_its_start() {
+    let dir = tempfile::tempdir().unwrap();
+    let whole_dir = dir.path().join("whole");
+    let whole = learned(
+        &whole_dir,
+        &lander(&qlearning(whole_dir.to_str().unwrap(), "60000", "0")),
+    );
+    // Resumed on workers, and in-process.
+    for resume_on_workers in [true, false] {
+        let iox = Iox::new(&format!("ckpt_q_{resume_on_workers}"));
+        let run_id = format!("ckptq{resume_on_workers}{}", std::process::id());
+        let out = dir.path().join(format!("run-{resume_on_workers}"));
+        let out_s = out.to_str().unwrap();
+        let mut a = qlearning(out_s, "60000", "2000");
+        a.extend(["--workers", "2", "--run-id", &run_id]);
+        let mut child = iox
+            .command("lander")
+            .args(&a)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let saved = out.join("checkpoint.bin");
+        assert!(
+            soon(|| saved.exists()),
+            "no checkpoint of the trial's start"
+        );
+        // Killed once both workers joined (a worker that never saw its
+        // coordinator waits for the run to start), with the trial on one.
+        let events = out.join("events.jsonl");
+        let joined =
+            || fs::read_to_string(&events).map_or(0, |t| t.matches("worker_joined").count());
+        assert!(soon(|| joined() == 2), "the workers never joined");
+        child.kill().unwrap();
+        child.wait().unwrap();
+        assert!(
+            !out.join("summary.json").exists(),
+            "the run ended before the kill"
+        );
+        // The killed coordinator's workers see it gone and leave.
+        let gone = wait_until(20, || {
+            let found = Command::new("pgrep")
+                .args(["-f", &run_id])
+                .output()
+                .unwrap();
+            found.stdout.is_empty()
+        });
+        assert!(gone, "workers of the killed run are still there");
+        let mut r = vec!["run", "--resume", out_s, "--json"];
+        if resume_on_workers {
+            r.extend(["--workers", "2"]);
+        }
+        let resumed = iox.lander(&r);
+        assert_eq!(
+            learned(&out, &resumed),
+            whole,
+            "resumed on workers: {resume_on_workers}"
+        );
+        assert!(!saved.exists(), "a finished run keeps no checkpoint");
+        assert_eq!(
+            iox.shm_files(),
+            Vec::<String>::new(),
+            "shared memory left behind"
+        );
+        assert_eq!(
+            iox.root_files(),
+            Vec::<std::path::PathBuf>::new(),
+            "iceoryx2 files left behind"
+        );
+    }
+}

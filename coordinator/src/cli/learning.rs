@@ -1,7 +1,8 @@
 //! `lander run --method qlearning`: one Q(λ) trial, in-process with a
 //! progress bar over episodes and a checkpoint every `--checkpoint-every`
-//! episodes and when stopped, or as one `Train` job on a worker (not
-//! checkpointed: the worker holds the agent), written to a folder.
+//! episodes and when stopped, or as one `Train` job on a worker, written to
+//! a folder. The worker holds the agent, so a trial on a worker is
+//! checkpointed only at its start: resumed, it is flown again whole.
 
 use anyhow::{bail, Context};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -52,21 +53,50 @@ pub fn learn(
             let log = RunLog::create(out, EPISODES)?;
             in_process(cfg, out, run, log, every, stop)?
         }
-        Some(pool) => on_a_worker(cfg, out, pool)?,
+        Some(pool) => {
+            // The trial's start, so that `--resume` finds it after a kill.
+            let start = LearnRun::new(&env, &cfg.guided, &cfg.qlearning, key).state();
+            save(cfg, out, &start)?;
+            on_a_worker(cfg, out, pool)?
+        }
     };
     finish(cfg, out, json, &training, started)
 }
 
+fn save(cfg: &RunConfig, out: &Path, state: &LearnState) -> anyhow::Result<()> {
+    checkpoint::save(
+        out,
+        &Checkpoint {
+            config: cfg.clone(),
+            state: Saved::Learning(state.clone()),
+        },
+    )?;
+    Ok(())
+}
+
 /// `lander run --resume DIR` of a Q(λ) trial saved at `state`: its log cut
-/// back to the checkpoint, and on in-process to the end.
+/// back to the checkpoint, and on in-process to the end; or, from its
+/// start only, whole on `pool`.
 pub fn resume(
     cfg: &RunConfig,
     dir: &Path,
     json: bool,
     state: &LearnState,
-    every: u64,
-    stop: &Stop,
+    pool: Option<Box<dyn Backend>>,
+    (every, stop): (u64, &Stop),
 ) -> anyhow::Result<()> {
+    if let Some(pool) = pool {
+        anyhow::ensure!(
+            state.episodes == 0,
+            "{} holds a Q(λ) trial after episode {}, which goes on in this process: resume it \
+             without --workers or --attach",
+            dir.join(checkpoint::FILE).display(),
+            state.episodes
+        );
+        let started = Instant::now();
+        let training = on_a_worker(cfg, dir, pool)?;
+        return finish(cfg, dir, json, &training, started);
+    }
     let key = StreamKey::new(cfg.seed, cfg.trial, 0, 0);
     let run =
         LearnRun::resume(&cfg.env(0), &cfg.guided, &cfg.qlearning, key, state).map_err(|e| {
@@ -75,7 +105,11 @@ pub fn resume(
                 dir.join(checkpoint::FILE).display()
             )
         })?;
-    let log = RunLog::resume(dir, EPISODES, u64::from(state.episodes))?;
+    // A trial saved at its start (on a worker) may have no log yet.
+    let log = match state.episodes {
+        0 => RunLog::create(dir, EPISODES)?,
+        n => RunLog::resume(dir, EPISODES, u64::from(n))?,
+    };
     tracing::info!(
         "resuming {} after episode {}",
         dir.display(),
@@ -99,14 +133,7 @@ fn in_process(
     let bar = bar(cfg);
     let save = |run: &LearnRun, log: &mut RunLog| -> anyhow::Result<()> {
         log.sync()?;
-        checkpoint::save(
-            out,
-            &Checkpoint {
-                config: cfg.clone(),
-                state: Saved::Learning(run.state()),
-            },
-        )?;
-        Ok(())
+        save(cfg, out, &run.state())
     };
     bar.set_position(u64::from(run.training().episodes));
     while let Some(e) = run.step() {
@@ -155,7 +182,13 @@ fn on_a_worker(
     };
     let bar = bar(cfg);
     let result = pool
-        .train(&[job], &mut |_, _| ())?
+        .train(&[job], &mut |_, _| ())
+        .with_context(|| {
+            format!(
+                "the trial stopped; `lander run --resume {}` flies it again from its start",
+                out.display()
+            )
+        })?
         .pop()
         .context("the pool returned no result for the trial")?;
     bar.finish_and_clear();
