@@ -128,18 +128,7 @@ fn kill_and_resume(method: &str, workers: bool, when: When, whole: &(Vec<u8>, Ve
         "{method} {when:?}: no checkpoint"
     );
     if workers {
-        // The killed coordinator's workers see it gone and leave.
-        let gone = wait_until(20, || {
-            let found = Command::new("pgrep")
-                .args(["-f", &run_id])
-                .output()
-                .unwrap();
-            found.stdout.is_empty()
-        });
-        assert!(
-            gone,
-            "{method} {when:?}: workers of the killed run are still there"
-        );
+        assert_workers_leave(&run_id);
     }
     let resumed = iox.lander(&["run", "--resume", out_s, "--json"]);
     assert_eq!(
@@ -151,6 +140,20 @@ fn kill_and_resume(method: &str, workers: bool, when: When, whole: &(Vec<u8>, Ve
         !out.join("checkpoint.bin").exists(),
         "a finished run keeps no checkpoint"
     );
+    assert_nothing_left(&iox);
+}
+
+/// The workers of killed run `run_id` see their coordinator gone and leave.
+fn assert_workers_leave(run_id: &str) {
+    let gone = wait_until(20, || {
+        let found = Command::new("pgrep").args(["-f", run_id]).output().unwrap();
+        found.stdout.is_empty()
+    });
+    assert!(gone, "workers of the killed run {run_id} are still there");
+}
+
+/// No shared memory or iceoryx2 file of the test's namespace is left.
+fn assert_nothing_left(iox: &Iox) {
     assert_eq!(
         iox.shm_files(),
         Vec::<String>::new(),
@@ -398,15 +401,7 @@ fn a_qlearning_run_on_workers_killed_resumes_from_its_start() {
             !out.join("summary.json").exists(),
             "the run ended before the kill"
         );
-        // The killed coordinator's workers see it gone and leave.
-        let gone = wait_until(20, || {
-            let found = Command::new("pgrep")
-                .args(["-f", &run_id])
-                .output()
-                .unwrap();
-            found.stdout.is_empty()
-        });
-        assert!(gone, "workers of the killed run are still there");
+        assert_workers_leave(&run_id);
         let mut r = vec!["run", "--resume", out_s, "--json"];
         if resume_on_workers {
             r.extend(["--workers", "2"]);
@@ -418,15 +413,6 @@ fn a_qlearning_run_on_workers_killed_resumes_from_its_start() {
             "resumed on workers: {resume_on_workers}"
         );
         assert!(!saved.exists(), "a finished run keeps no checkpoint");
-        assert_eq!(
-            iox.shm_files(),
-            Vec::<String>::new(),
-            "shared memory left behind"
-        );
-        assert_eq!(
-            iox.root_files(),
-            Vec::<std::path::PathBuf>::new(),
-            "iceoryx2 files left behind"
-        );
+        assert_nothing_left(&iox);
     }
 }
