@@ -140,6 +140,15 @@ pub fn save(dir: &Path, checkpoint: &Checkpoint) -> Result<(), CheckpointError> 
         .map_err(io(dir))
 }
 
+/// Removes `dir`'s checkpoint, if it has one: the run it saved is over.
+pub fn remove(dir: &Path) -> Result<(), CheckpointError> {
+    let path = dir.join(FILE);
+    match std::fs::remove_file(&path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(io(&path)(e)),
+        _ => Ok(()),
+    }
+}
+
 /// Reads `dir`'s checkpoint.
 pub fn load(dir: &Path) -> Result<Checkpoint, CheckpointError> {
     let path = dir.join(FILE);

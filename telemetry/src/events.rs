@@ -265,6 +265,24 @@ impl Telemetry {
     }
 }
 
+/// Reads `dir/events.jsonl` back, one JSON object per event; a line that
+/// is not JSON is an error naming the file and the line.
+pub fn read(dir: &Path) -> std::io::Result<Vec<serde_json::Value>> {
+    let path = dir.join(EVENTS_FILE);
+    let text = std::fs::read_to_string(&path)?;
+    text.lines()
+        .enumerate()
+        .map(|(i, line)| {
+            serde_json::from_str(line).map_err(|e| {
+                std::io::Error::new(
+                    std::io::ErrorKind::InvalidData,
+                    format!("{} line {}: {e}", path.display(), i + 1),
+                )
+            })
+        })
+        .collect()
+}
+
 fn log(event: &Event) {
     match event {
         Event::WorkerDied { .. } | Event::WorkerTimedOut { .. } | Event::WorkerRefused { .. } => {
@@ -302,7 +320,6 @@ fn count(m: &CoordinatorMetrics, event: &Event) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use serde_json::Value;
 
     fn worker() -> WorkerRef {
         WorkerRef {
@@ -329,12 +346,8 @@ mod tests {
             chunks: 3,
             why: Cause::Exited,
         });
-        let text = std::fs::read_to_string(dir.path().join(EVENTS_FILE)).unwrap();
-        let lines: Vec<Value> = text
-            .lines()
-            .map(|l| serde_json::from_str(l).unwrap())
-            .collect();
-        assert_eq!(lines.len(), 2, "{text}");
+        let lines = read(dir.path()).unwrap();
+        assert_eq!(lines.len(), 2, "{lines:?}");
         assert_eq!(lines[0]["event"], "worker_died");
         assert_eq!(lines[0]["run"], "r1");
         assert_eq!(lines[0]["worker"], "00000000000000ab");
@@ -362,7 +375,6 @@ mod tests {
             t.record_to(dir.path()).unwrap();
             t.event(Event::RunFinished);
         }
-        let text = std::fs::read_to_string(dir.path().join(EVENTS_FILE)).unwrap();
-        assert_eq!(text.lines().count(), 2);
+        assert_eq!(read(dir.path()).unwrap().len(), 2);
     }
 }

@@ -257,7 +257,7 @@ pub fn http_get(addr: &str, path: &str) -> Result<String, String> {
 
 /// The events of a run folder's `events.jsonl`.
 pub fn events(dir: &Path) -> Vec<Value> {
-    json_lines(&dir.join("events.jsonl"))
+    lander_telemetry::events::read(dir).expect("events.jsonl reads back")
 }
 
 /// The id of the worker with process id `pid`, as its `worker_joined`

@@ -4,7 +4,7 @@
 //! a folder. The worker holds the agent, so a trial on a worker is
 //! checkpointed only at its start: resumed, it is flown again whole.
 
-use anyhow::{bail, Context};
+use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use lander_coordinator::checkpoint::{self, Checkpoint, Saved};
 use lander_coordinator::config::RunConfig;
@@ -75,24 +75,18 @@ fn save(cfg: &RunConfig, out: &Path, state: &LearnState) -> anyhow::Result<()> {
 }
 
 /// `lander run --resume DIR` of a Q(λ) trial saved at `state`: its log cut
-/// back to the checkpoint, and on in-process to the end; or, from its
-/// start only, whole on `pool`.
+/// back to the checkpoint, and on in-process to the end; or whole on
+/// `pool`, which the caller gives only for a trial saved at its start.
 pub fn resume(
     cfg: &RunConfig,
     dir: &Path,
     json: bool,
     state: &LearnState,
     pool: Option<Box<dyn Backend>>,
-    (every, stop): (u64, &Stop),
+    every: u64,
+    stop: &Stop,
 ) -> anyhow::Result<()> {
     if let Some(pool) = pool {
-        anyhow::ensure!(
-            state.episodes == 0,
-            "{} holds a Q(λ) trial after episode {}, which goes on in this process: resume it \
-             without --workers or --attach",
-            dir.join(checkpoint::FILE).display(),
-            state.episodes
-        );
         let started = Instant::now();
         let training = on_a_worker(cfg, dir, pool)?;
         return finish(cfg, dir, json, &training, started);
@@ -233,20 +227,10 @@ fn finish(
         landing_rate_last_100: training.landing_rate_last_100,
         wall_s: started.elapsed().as_secs_f64(),
     };
-    if training.episodes < cfg.qlearning.episodes {
-        bail!(
-            "the trial ended after {} of {} episodes",
-            training.episodes,
-            cfg.qlearning.episodes
-        );
-    }
     let summary_path = out.join("summary.json");
     write_json(&summary_path, &summary)?;
     // The run is over; nothing is left to resume.
-    let saved = out.join(checkpoint::FILE);
-    if saved.exists() {
-        std::fs::remove_file(&saved).with_context(|| format!("removing {}", saved.display()))?;
-    }
+    checkpoint::remove(out)?;
     if json {
         println!("{}", serde_json::to_string(&summary)?);
     } else {

@@ -177,7 +177,7 @@ fn resume(args: &RunArgs, dir: &Path, watch: &Watch, stop: &Stop) -> anyhow::Res
             let pool = args.transport.pool(&watch.telemetry, stop)?;
             watch.begin(dir, "run --resume")?;
             let every = args.checkpoint_every(cfg.method);
-            return super::learning::resume(&cfg, dir, args.json, &state, pool, (every, stop));
+            return super::learning::resume(&cfg, dir, args.json, &state, pool, every, stop);
         }
     };
     let index = state.index;
@@ -287,10 +287,7 @@ fn evolve(
     let best_path = out.join("best.json");
     write_json(&best_path, &BestRecord::new(cfg, &result))?;
     // The run is over; nothing is left to resume.
-    let saved = out.join(checkpoint::FILE);
-    if saved.exists() {
-        std::fs::remove_file(&saved).with_context(|| format!("removing {}", saved.display()))?;
-    }
+    checkpoint::remove(out)?;
     let summary = RunSummary::new(cfg, &result, wall_s);
     if args.json {
         println!("{}", serde_json::to_string(&summary)?);

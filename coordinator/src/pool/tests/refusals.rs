@@ -2,7 +2,6 @@
 //! that fail to decode.
 
 use super::fake::{no_chunks, pool, Recorder};
-use lander_telemetry::events::EVENTS_FILE;
 use lander_telemetry::{CoordinatorMetrics, Telemetry};
 use std::sync::Arc;
 
@@ -33,11 +32,7 @@ fn a_refused_answer_costs_its_worker_and_the_chunk_runs_elsewhere() {
     let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
     assert_eq!(ids, [8], "the worker that answered badly is dropped");
     assert!(pool.dropped.contains(&7));
-    let events: Vec<serde_json::Value> = std::fs::read_to_string(dir.path().join(EVENTS_FILE))
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
+    let events = lander_telemetry::events::read(dir.path()).unwrap();
     let refused: Vec<_> = events
         .iter()
         .filter(|e| e["event"] == "worker_refused")
