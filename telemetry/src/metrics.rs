@@ -33,6 +33,9 @@ pub struct CoordinatorMetrics {
     /// deadline or was refused; by that cause.
     pub chunks_redispatched: IntCounterVec,
     pub chunks_refused: IntCounter,
+    /// Answers checked under --verify, by where the check was flown:
+    /// `worker` (another worker) or `coordinator`.
+    pub chunks_checked: IntCounterVec,
     /// Workers lost mid-run, by cause: exited, disconnected, left,
     /// deadline, refused. A zenoh worker's death shows as `left`: the
     /// coordinator sees its token go either way.
@@ -162,6 +165,12 @@ impl CoordinatorMetrics {
                 &r,
                 "lander_chunks_refused_total",
                 "Answers refused: malformed, or wrong under --verify.",
+            ),
+            chunks_checked: counter_vec(
+                &r,
+                "lander_chunks_checked_total",
+                "Answers checked under --verify, by where the check was flown.",
+                "on",
             ),
             workers_lost: counter_vec(
                 &r,

@@ -390,6 +390,49 @@ fn a_worker_for_a_missing_run_waits_and_says_so() {
     );
 }
 
+/// True once process `pid` has exited (gone, or a zombie nobody reaped).
+fn exited(pid: &str) -> bool {
+    fs::read_to_string(format!("/proc/{pid}/stat")).map_or(true, |stat| {
+        stat.rsplit(')')
+            .next()
+            .unwrap_or("")
+            .trim_start()
+            .starts_with('Z')
+    })
+}
+
+#[test]
+fn a_spawned_worker_whose_coordinator_died_before_it_joined_stops() {
+    let _one_at_a_time = serial();
+    let iox = Iox::new("orphan");
+    let dir = tempfile::tempdir().unwrap();
+    let err = dir.path().join("stderr");
+    // A shell stands for the coordinator: it starts the worker as a
+    // coordinator does (`--parent` its own pid), for a run that never
+    // starts, and dies a second later.
+    let worker = iox.command("lander-worker");
+    let out = std::process::Command::new("sh")
+        .envs(worker.get_envs().filter_map(|(k, v)| Some((k, v?))))
+        .args([
+            "-c",
+            r#""$0" "$@" --parent $$ >/dev/null & echo $!; sleep 1"#,
+        ])
+        .arg(worker.get_program())
+        .args(["--run", "orphaned"])
+        .stderr(fs::File::create(&err).unwrap())
+        .output()
+        .unwrap();
+    let pid = String::from_utf8(out.stdout).unwrap().trim().to_string();
+    let said = || fs::read_to_string(&err).unwrap_or_default();
+    assert!(said().contains("waiting for run orphaned"), "{}", said());
+    assert!(
+        wait_until(10, || exited(&pid)),
+        "the orphan still runs: {}",
+        said()
+    );
+    assert!(said().contains("is gone; stopping"), "{}", said());
+}
+
 #[test]
 fn a_worker_stopped_and_resumed_keeps_waiting_until_sigint() {
     let _one_at_a_time = serial();

@@ -1,9 +1,11 @@
 //! `--verify`: a worker that answers well-formed but wrong fitness is
-//! caught by the in-process check of its chunks (its first answer is always
-//! checked), dropped for good, and its chunks flown again, so the run's
-//! results are the same as in-process; without `--verify` the same liar
-//! changes them. Real processes: a coordinator and two attached iceoryx2
-//! workers, one of them started with the hidden `--lie`.
+//! caught when the other worker flies a checked chunk again and disagrees
+//! (each worker's first answers are always checked), and the chunk flown
+//! in-process decides. The liar is dropped for good and its chunks flown
+//! again, so the run's results are the same as in-process; without
+//! `--verify` the same liar changes them. Real processes: a coordinator and
+//! two attached iceoryx2 workers, one of them started with the hidden
+//! `--lie`.
 
 use lander_tests::{json_out, lander, stderr, without_wall_time, Iox};
 use serde_json::Value;
@@ -95,7 +97,7 @@ fn a_lying_worker_is_caught_dropped_and_its_work_done_again() {
         assert_eq!(got.best, expected.best, "{rate}");
         assert!(
             said.contains(&format!("refusing worker {LIAR}"))
-                && said.contains("differs from this host's (--verify)"),
+                && said.contains("differs from this host's (--verify, "),
             "{rate}: {said}"
         );
         assert!(
@@ -111,7 +113,11 @@ fn a_lying_worker_is_caught_dropped_and_its_work_done_again() {
             .collect();
         assert_eq!(refused.len(), 1, "{rate}: {:?}", got.events);
         assert_eq!(refused[0]["worker"], LIAR);
-        assert!(refused[0]["why"].as_str().unwrap().contains("(--verify)"));
+        // The honest worker flew again a chunk the liar answered, or the
+        // liar one the honest worker answered: either way the refusal
+        // names the other worker.
+        let why = refused[0]["why"].as_str().unwrap();
+        assert!(why.contains("(--verify, ") && why.contains(HONEST), "{why}");
         assert!(got
             .events
             .iter()

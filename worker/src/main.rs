@@ -4,6 +4,7 @@
 //! - [`cpu`]: where the process runs (one CPU, the batch class).
 
 mod cpu;
+mod parent;
 mod serve;
 
 use clap::{Parser, ValueEnum};
@@ -92,6 +93,10 @@ struct Args {
     /// the tests of the coordinator's --verify.
     #[arg(long, hide = true)]
     lie: bool,
+    /// Set by a coordinator that spawns this worker, to its own pid: the
+    /// worker stops once that process is gone (src/parent.rs).
+    #[arg(long, value_name = "PID", hide = true)]
+    parent: Option<u32>,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -120,6 +125,10 @@ fn main() -> ExitCode {
     }
     if let Err(e) = check_run_id(&args.run) {
         tracing::error!("--run {e}");
+        return ExitCode::FAILURE;
+    }
+    if let Some(Err(e)) = args.parent.map(parent::watch) {
+        tracing::error!("cannot watch the coordinator that started this worker: {e}");
         return ExitCode::FAILURE;
     }
     if args.transport != TransportArg::Zenoh {

@@ -4,7 +4,8 @@
 //! pass's actions into the genomes) and training results.
 
 use super::schedule::{chunk_ranges, Chunk};
-use super::{verify, Pool, Transport};
+use super::verify::{self, Check};
+use super::{Pool, Transport};
 use crate::evaluator::{Batch, EvalError, Evaluator, Trainer};
 use lander_model::{Action, Evaluation, TrainJob, TrainResult};
 use lander_protocol::wire::{
@@ -38,7 +39,7 @@ impl<T: Transport> Trainer for Pool<T> {
             .collect();
         self.run_chunks(
             &chunks,
-            |i, body, _| decode_training(body, trials[i].learn.episodes).map_err(|e| e.to_string()),
+            |i, body| decode_training(body, trials[i].learn.episodes).map_err(|e| e.to_string()),
             done,
         )
     }
@@ -78,17 +79,18 @@ impl<T: Transport> Evaluator for Pool<T> {
         // arrives, while other workers still fly: at a generation's end
         // only the last answers' are left to write.
         let rate = self.opts.verify;
-        let results = self.run_chunks(
+        let check = Check {
+            due: &|i, first| verify::due(&chunks[i].header, rate, first),
+            here: &|i| verify::fly_here(&chunks[i]),
+            differs: &|i, truth, answer| verify::differs(&chunks[i], truth, answer),
+        };
+        let results = self.run_checked(
             &chunks,
-            |i, body, first| {
+            |i, body| {
                 let (_, range, length, pass) = &spans[i];
-                let result = ChunkResult::decode(body, *pass, range.len(), *length)
-                    .map_err(|e| e.to_string())?;
-                if verify::due(&chunks[i].header, rate, first) {
-                    verify::check(&chunks[i], &result)?;
-                }
-                Ok(result)
+                ChunkResult::decode(body, *pass, range.len(), *length).map_err(|e| e.to_string())
             },
+            &check,
             |i, result| {
                 let (b, range, _, _) = &spans[i];
                 write_back(&mut batches[*b].genomes[range.clone()], &result.actions);

@@ -38,6 +38,7 @@
 mod backend;
 pub mod iceoryx;
 mod link;
+mod progress;
 mod schedule;
 mod spawn;
 mod timing;

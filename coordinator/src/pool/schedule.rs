@@ -4,6 +4,8 @@
 //! (`Pool::dispatch`), taking back from a busy worker for an idle one
 //! (`Pool::rebalance`), and only then decoding.
 
+use super::progress::Progress;
+use super::verify::{Check, Outcome, Verdict};
 use super::{Answer, Pool, Transport, WorkerLink};
 use crate::evaluator::EvalError;
 use lander_protocol::wire::{JobHeader, WireGene};
@@ -55,89 +57,79 @@ impl<T: Transport> Pool<T> {
     }
 
     /// Runs every chunk on the workers and returns the answers in chunk
-    /// order. `decode(i, body, first)` checks and decodes the answer to
-    /// chunk `i`, where `first` says that its worker has had no answer
-    /// taken yet; an answer it refuses costs its worker the link, and the
-    /// chunk runs elsewhere.
+    /// order. `decode(i, body)` checks and decodes the answer to chunk
+    /// `i`; an answer it refuses costs its worker the link, and the chunk
+    /// runs elsewhere. `finished(i, result)` hears of each result taken.
     pub fn run_chunks<R>(
         &mut self,
         chunks: &[Chunk],
-        decode: impl Fn(usize, &[u8], bool) -> Result<R, String>,
+        decode: impl Fn(usize, &[u8]) -> Result<R, String>,
+        finished: impl FnMut(usize, &R),
+    ) -> Result<Vec<R>, EvalError> {
+        self.run_checked(chunks, decode, &Check::none(), finished)
+    }
+
+    /// [`Pool::run_chunks`], with the answers `check` finds due held until
+    /// a check of them is in (`verify`).
+    pub(super) fn run_checked<R>(
+        &mut self,
+        chunks: &[Chunk],
+        decode: impl Fn(usize, &[u8]) -> Result<R, String>,
+        check: &Check<'_, R>,
         mut finished: impl FnMut(usize, &R),
     ) -> Result<Vec<R>, EvalError> {
         self.await_first_workers()?;
-        let mut todo: VecDeque<usize> = (0..chunks.len()).collect();
-        let mut done: Vec<Option<R>> = (0..chunks.len()).map(|_| None).collect();
-        // Chunks with an answer in hand, decoded or not.
-        let mut answered = vec![false; chunks.len()];
-        // The worker whose answer each chunk took.
-        let mut owner: Vec<Option<u64>> = vec![None; chunks.len()];
-        let mut remaining = chunks.len();
-        while remaining > 0 {
+        let mut progress = Progress::new(chunks.len());
+        while !progress.is_finished() {
             if self.opts.stop.asked() {
                 return Err(EvalError::Interrupted);
             }
             self.accept()?;
-            self.reap(&mut todo)?;
-            let (fresh, malformed) = self.collect(&mut answered);
-            self.drop_links(&mut todo, |l| malformed.contains(&l.id()), Cause::Refused);
-            self.drop_links(&mut todo, |l| l.is_broken(), Cause::Disconnected);
-            // A worker that ran dry gets more before anything is decoded:
-            // decoding can wait, an idle worker should not.
-            todo.retain(|&c| !answered[c]);
-            self.rebalance(chunks, &mut todo);
-            self.dispatch(chunks, &mut todo);
-            let mut refused = false;
+            self.reap(&mut progress.todo)?;
+            let (fresh, malformed) = self.collect(&mut progress);
+            let todo = &mut progress.todo;
+            self.drop_links(todo, |l| malformed.contains(&l.id()), Cause::Refused);
+            self.drop_links(todo, |l| l.is_broken(), Cause::Disconnected);
             // Workers refused in this pass: their remaining answers are
             // not read.
             let mut distrusted = Vec::new();
+            // A worker that ran dry gets more before anything is decoded:
+            // decoding can wait, an idle worker should not.
+            progress.drop_answered();
+            progress.sort();
+            for (c, verdict) in self.dispatch_checks(chunks, &mut progress, check) {
+                self.apply(&mut progress, c, verdict, &mut distrusted, &mut finished);
+            }
+            self.drop_links(&mut progress.todo, |l| l.is_broken(), Cause::Refused);
+            self.rebalance(chunks, &mut progress);
+            progress.sort();
+            self.dispatch(chunks, &mut progress.todo);
             for (worker, a) in fresh {
                 if distrusted.contains(&worker) {
-                    answered[a.chunk] = false;
-                    todo.push_front(a.chunk);
+                    progress.again(a.chunk);
                     continue;
                 }
-                match decode(a.chunk, &a.body, !self.vetted.contains(&worker)) {
+                let (c, is_check) = progress.subject(a.chunk);
+                let verdict = match decode(c, &a.body) {
+                    Err(e) => Verdict::refused(a.chunk, worker, format!("a result: {e}")),
+                    Ok(value) if is_check => {
+                        self.judge_check(&mut progress, check, c, value, worker)
+                    }
                     Ok(value) => {
-                        self.vetted.insert(worker);
-                        finished(a.chunk, &value);
-                        done[a.chunk] = Some(value);
-                        owner[a.chunk] = Some(worker);
-                        remaining -= 1;
+                        let first = !self.vetted.contains(&worker);
+                        self.judge(&mut progress, check, c, value, worker, first)
                     }
-                    Err(e) => {
-                        let mut pid = 0;
-                        for link in self.links.iter_mut().filter(|l| l.id() == worker) {
-                            link.break_off();
-                            pid = link.pid();
-                        }
-                        let who = self.worker_ref(worker, pid);
-                        self.refuse(who.clone(), format!("a result: {e}"));
-                        answered[a.chunk] = false;
-                        todo.push_front(a.chunk);
-                        refused = true;
-                        distrusted.push(worker);
-                        // Its other answers are no longer believed either.
-                        let mut again = 1;
-                        for c in 0..chunks.len() {
-                            if owner[c] == Some(worker) && done[c].take().is_some() {
-                                owner[c] = None;
-                                answered[c] = false;
-                                remaining += 1;
-                                todo.push_back(c);
-                                again += 1;
-                            }
-                        }
-                        self.telemetry.event(Event::ChunksRedispatched {
-                            worker: who,
-                            chunks: again,
-                            why: Cause::Refused,
-                        });
-                    }
-                }
+                };
+                self.apply(
+                    &mut progress,
+                    a.chunk,
+                    verdict,
+                    &mut distrusted,
+                    &mut finished,
+                );
             }
-            self.drop_links(&mut todo, |l| l.is_broken(), Cause::Refused);
-            if remaining == 0 {
+            self.drop_links(&mut progress.todo, |l| l.is_broken(), Cause::Refused);
+            if progress.is_finished() {
                 break;
             }
             if self.links.is_empty() && self.children.is_empty() && self.opts.spawn > 0 {
@@ -147,18 +139,81 @@ impl<T: Transport> Pool<T> {
             }
             self.tell_waiting();
             // A refused chunk goes out again at once, not after a sleep.
-            if !refused {
+            if distrusted.is_empty() {
                 self.sleep()?;
             }
         }
-        Ok(done.into_iter().flatten().collect())
+        Ok(progress.into_results())
+    }
+
+    /// Carries out the verdict on an answer to `i` (a chunk or a check, as
+    /// sent): takes the result, or sends `i` again, and refuses the workers
+    /// found wrong, putting back all they answered in the generation.
+    fn apply<R>(
+        &mut self,
+        progress: &mut Progress<R>,
+        i: usize,
+        verdict: Verdict<R>,
+        distrusted: &mut Vec<u64>,
+        finished: &mut impl FnMut(usize, &R),
+    ) {
+        let mut again_of = None;
+        match verdict.outcome {
+            Outcome::Take(value, by) => {
+                let (c, _) = progress.subject(i);
+                self.vetted.insert(by);
+                finished(c, &value);
+                progress.take(c, value, by);
+            }
+            Outcome::Nothing => {}
+            Outcome::Again(i, by) => {
+                progress.again(i);
+                // A chunk it answered is flown again; a check it flew is
+                // only sent elsewhere.
+                again_of = (!progress.subject(i).1).then_some(by);
+            }
+        }
+        for (worker, why) in verdict.refusals {
+            if !distrusted.contains(&worker) {
+                distrusted.push(worker);
+                self.refuse_worker(progress, worker, why, again_of == Some(worker));
+            }
+        }
+    }
+
+    /// Refuses `worker` for good: breaks its link, says why, and puts back
+    /// every chunk it answered in the generation (`and_one`: besides the
+    /// one just put back).
+    fn refuse_worker<R>(
+        &mut self,
+        progress: &mut Progress<R>,
+        worker: u64,
+        why: String,
+        and_one: bool,
+    ) {
+        let mut pid = 0;
+        for link in self.links.iter_mut().filter(|l| l.id() == worker) {
+            link.break_off();
+            pid = link.pid();
+        }
+        let who = self.worker_ref(worker, pid);
+        self.refuse(who.clone(), why);
+        // Its other answers are no longer believed either.
+        let chunks = progress.disown(worker) + usize::from(and_one);
+        if chunks > 0 {
+            self.telemetry.event(Event::ChunksRedispatched {
+                worker: who,
+                chunks,
+                why: Cause::Refused,
+            });
+        }
     }
 
     /// The answers that arrived, each with the worker that gave it, to
     /// chunks not answered before (a chunk run twice keeps its first
     /// answer); checked, not yet decoded. Also the workers whose answer
     /// failed its checks, refused now.
-    fn collect(&mut self, answered: &mut [bool]) -> (Vec<(u64, Answer)>, Vec<u64>) {
+    fn collect<R>(&mut self, progress: &mut Progress<R>) -> (Vec<(u64, Answer)>, Vec<u64>) {
         let mut fresh = Vec::new();
         let mut malformed = Vec::new();
         for i in 0..self.links.len() {
@@ -176,7 +231,7 @@ impl<T: Transport> Pool<T> {
                 if let Some(t) = &mut self.timings {
                     t.push(a.timing);
                 }
-                if !std::mem::replace(&mut answered[a.chunk], true) {
+                if progress.first_answer(a.chunk) {
                     fresh.push((id, a));
                 }
             }
@@ -197,8 +252,10 @@ impl<T: Transport> Pool<T> {
     /// generation cost unevenly (one lander crashes at once, another flies
     /// its whole plan), so without this a worker that drew cheap chunks
     /// would wait for one that drew dear ones.
-    pub(super) fn rebalance(&mut self, chunks: &[Chunk], todo: &mut VecDeque<usize>) {
-        if !todo.is_empty() {
+    /// A check is never given to the worker whose answer it checks: it
+    /// goes back to be sent to another.
+    pub(super) fn rebalance<R>(&mut self, chunks: &[Chunk], progress: &mut Progress<R>) {
+        if !progress.todo.is_empty() {
             return;
         }
         for idle in 0..self.links.len() {
@@ -218,7 +275,11 @@ impl<T: Transport> Pool<T> {
             if let Some(m) = self.telemetry.metrics() {
                 m.chunks_taken_back.inc();
             }
-            self.hand(idle, chunks, chunk, todo);
+            if progress.checked_worker(chunk) == Some(self.links[idle].id()) {
+                progress.todo.push_back(chunk);
+                break;
+            }
+            self.hand(idle, chunks, chunk, &mut progress.todo);
         }
     }
 
@@ -247,21 +308,24 @@ impl<T: Transport> Pool<T> {
         self.notify_all();
     }
 
-    /// Sends chunk `chunk` to link `i` under a fresh job id; if it cannot
-    /// be sent, the chunk goes back at the head of `todo`.
-    fn hand(
+    /// Sends chunk `chunk` (or a check, as `progress` numbers them) to link
+    /// `i` under a fresh job id; if it cannot be sent, it goes back at the
+    /// head of `todo`.
+    pub(super) fn hand(
         &mut self,
         i: usize,
         chunks: &[Chunk],
         chunk: usize,
         todo: &mut VecDeque<usize>,
     ) -> bool {
-        let mut header = chunks[chunk].header;
+        // A check of chunk `c` is sent as `chunks.len() + c` (`progress`).
+        let flown = &chunks[chunk % chunks.len()];
+        let mut header = flown.header;
         header.job_id = self.next_job;
         self.next_job += 1;
-        let deadline = chunks[chunk].timed.then_some(self.opts.deadline);
+        let deadline = flown.timed.then_some(self.opts.deadline);
         let link = &mut self.links[i];
-        match link.send(header, &chunks[chunk].genes, chunk, deadline) {
+        match link.send(header, &flown.genes, chunk, deadline) {
             Ok(()) => {
                 if let Some(m) = self.telemetry.metrics() {
                     m.chunks_dispatched.inc();

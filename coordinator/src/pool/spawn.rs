@@ -65,6 +65,8 @@ impl Children {
             "--id",
             &format!("{:x}", self.next_id),
             "--quiet",
+            "--parent",
+            &std::process::id().to_string(),
         ]);
         if let Some(cpu) = cpu {
             command.args(["--cpu", &cpu.to_string()]);

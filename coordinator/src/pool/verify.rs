@@ -1,18 +1,242 @@
 //! `--verify RATE`: a reproducible sample of answered evaluation chunks is
-//! flown again in-process and compared bit for bit. Evaluation is
-//! deterministic, so one differing number shows a worker wrong (bad memory,
-//! another build that still speaks the protocol, a bug); the pool then
-//! drops it for good and flies again every chunk it answered in the
-//! generation (`Pool::run_chunks`).
+//! flown again and compared bit for bit. Evaluation is deterministic, so
+//! one differing number shows a worker wrong (bad memory, another build
+//! that still speaks the protocol, a bug).
+//!
+//! An answer due for a check is held, not taken, and its chunk is flown
+//! again by another worker where there is one (the idlest with room), or
+//! else here. Where the two workers agree the answer is taken; where they
+//! disagree, the chunk flown here decides, and whichever of them differs
+//! from it is dropped for good, with every chunk it answered in the
+//! generation flown again (`Pool::run_checked`, `Progress::disown`).
 //!
 //! The sample depends only on the chunk's stream key and first genome,
 //! never on timing or on who answered, so the same run samples the same
-//! chunks every time. Besides the sample, each worker's first answer is
-//! checked: a worker wrong on every answer is then caught before any of
-//! its answers is taken.
+//! chunks every time. Besides the sample, each worker's answers are
+//! checked until one is taken: a worker wrong on every answer is then
+//! caught before any of its answers is.
 
+use super::progress::{Held, Progress};
 use super::schedule::Chunk;
+use super::{Pool, Transport, WorkerLink};
 use lander_protocol::wire::{ChunkResult, EvalJob, JobHeader, KIND_EVALUATE};
+use std::collections::VecDeque;
+
+/// How [`Pool::run_checked`] checks answers.
+pub(super) struct Check<'a, R> {
+    /// Whether the answer to chunk `c` is checked; `first`: its worker has
+    /// had no answer taken yet.
+    pub due: &'a dyn Fn(usize, bool) -> bool,
+    /// Chunk `c` flown here: the answer that decides.
+    pub here: &'a dyn Fn(usize) -> Result<R, String>,
+    /// What in the second answer to chunk `c` differs from the first
+    /// ("its evaluation of genome 7"), if anything.
+    pub differs: &'a dyn Fn(usize, &R, &R) -> Option<String>,
+}
+
+impl<'a, R: 'a> Check<'a, R> {
+    /// Checks nothing.
+    pub fn none() -> Check<'a, R> {
+        Check {
+            due: &never,
+            here: &nowhere::<R>,
+            differs: &alike::<R>,
+        }
+    }
+}
+
+fn never(_: usize, _: bool) -> bool {
+    false
+}
+
+fn nowhere<R>(_: usize) -> Result<R, String> {
+    Err("nothing is flown here".into())
+}
+
+fn alike<R>(_: usize, _: &R, _: &R) -> Option<String> {
+    None
+}
+
+/// What becomes of one answer.
+pub(super) struct Verdict<R> {
+    pub outcome: Outcome<R>,
+    /// The workers found wrong, and why.
+    pub refusals: Vec<(u64, String)>,
+}
+
+pub(super) enum Outcome<R> {
+    /// Taken as its chunk's result, the answer of the worker named.
+    Take(R, u64),
+    /// Held until its check is in, or a check whose answer is no longer
+    /// held: nothing to do.
+    Nothing,
+    /// Sent again (a chunk, or a check as `Progress` numbers them): no
+    /// answer of the worker named is taken for it.
+    Again(usize, u64),
+}
+
+impl<R> Verdict<R> {
+    fn take(value: R, by: u64) -> Verdict<R> {
+        Verdict {
+            outcome: Outcome::Take(value, by),
+            refusals: Vec::new(),
+        }
+    }
+
+    fn nothing() -> Verdict<R> {
+        Verdict {
+            outcome: Outcome::Nothing,
+            refusals: Vec::new(),
+        }
+    }
+
+    /// Worker `by`'s answer to `i` (as sent) refused, and `i` sent again.
+    pub fn refused(i: usize, by: u64, why: String) -> Verdict<R> {
+        Verdict {
+            outcome: Outcome::Again(i, by),
+            refusals: vec![(by, why)],
+        }
+    }
+}
+
+impl<T: Transport> Pool<T> {
+    /// Judges `value`, worker `by`'s answer to chunk `c`: taken, or held
+    /// for a check on another worker, or checked here where there is no
+    /// other.
+    pub(super) fn judge<R>(
+        &self,
+        progress: &mut Progress<R>,
+        check: &Check<'_, R>,
+        c: usize,
+        value: R,
+        by: u64,
+        first: bool,
+    ) -> Verdict<R> {
+        if !(check.due)(c, first) {
+            return Verdict::take(value, by);
+        }
+        if self.links.iter().any(|l| l.id() != by && !l.is_broken()) {
+            progress.hold(c, value, by);
+            return Verdict::nothing();
+        }
+        self.decide(check, c, Held { value, by }, None)
+    }
+
+    /// Judges `value`, worker `checker`'s answer to the check of chunk `c`:
+    /// where it agrees with the held answer, that is taken; where not, the
+    /// chunk flown here decides.
+    pub(super) fn judge_check<R>(
+        &mut self,
+        progress: &mut Progress<R>,
+        check: &Check<'_, R>,
+        c: usize,
+        value: R,
+        checker: u64,
+    ) -> Verdict<R> {
+        let Some(held) = progress.release(c) else {
+            return Verdict::nothing();
+        };
+        if (check.differs)(c, &held.value, &value).is_none() {
+            self.vetted.insert(checker);
+            return Verdict::take(held.value, held.by);
+        }
+        self.decide(check, c, held, Some((value, checker)))
+    }
+
+    /// Flies chunk `c` here and judges the `held` answer, and the
+    /// `checker`'s where there is one, against it.
+    fn decide<R>(
+        &self,
+        check: &Check<'_, R>,
+        c: usize,
+        held: Held<R>,
+        checker: Option<(R, u64)>,
+    ) -> Verdict<R> {
+        self.count_check("coordinator");
+        let truth = match (check.here)(c) {
+            Ok(truth) => truth,
+            Err(e) => return Verdict::refused(c, held.by, e),
+        };
+        let mut refusals = Vec::new();
+        if let Some((value, w)) = &checker {
+            if let Some(what) = (check.differs)(c, &truth, value) {
+                let why = format!(
+                    "{what} differs from this host's (--verify, checking worker {:016x})",
+                    held.by
+                );
+                refusals.push((*w, why));
+            }
+        }
+        let Some(what) = (check.differs)(c, &truth, &held.value) else {
+            return Verdict {
+                outcome: Outcome::Take(held.value, held.by),
+                refusals,
+            };
+        };
+        let also = checker.map_or(String::new(), |(_, w)| {
+            format!(", flown again on worker {w:016x}")
+        });
+        refusals.push((
+            held.by,
+            format!("{what} differs from this host's (--verify{also})"),
+        ));
+        Verdict {
+            outcome: Outcome::Again(c, held.by),
+            refusals,
+        }
+    }
+
+    /// Sends each queued check to the idlest worker with room other than
+    /// the one whose answer it checks; decides here each check with no
+    /// other worker to go to. Returns the verdicts decided here, each
+    /// under its chunk.
+    pub(super) fn dispatch_checks<R>(
+        &mut self,
+        chunks: &[Chunk],
+        progress: &mut Progress<R>,
+        check: &Check<'_, R>,
+    ) -> Vec<(usize, Verdict<R>)> {
+        let mut decided = Vec::new();
+        let mut waiting = VecDeque::new();
+        while let Some(c) = progress.checks.pop_front() {
+            let Some(by) = progress.held(c).map(|h| h.by) else {
+                continue;
+            };
+            let others: Vec<usize> = (0..self.links.len())
+                .filter(|&i| self.links[i].id() != by && !self.links[i].is_broken())
+                .collect();
+            let idlest = others
+                .iter()
+                .copied()
+                .filter(|&i| self.links[i].has_room())
+                .min_by_key(|&i| self.links[i].in_flight());
+            match idlest {
+                Some(i) => {
+                    let mut unsent = VecDeque::new();
+                    if self.hand(i, chunks, progress.check_of(c), &mut unsent) {
+                        self.count_check("worker");
+                    } else {
+                        waiting.push_back(c);
+                    }
+                }
+                None if !others.is_empty() => waiting.push_back(c),
+                None => {
+                    if let Some(held) = progress.release(c) {
+                        decided.push((c, self.decide(check, c, held, None)));
+                    }
+                }
+            }
+        }
+        progress.checks = waiting;
+        decided
+    }
+
+    fn count_check(&self, on: &str) {
+        if let Some(m) = self.telemetry.metrics() {
+            m.chunks_checked.with_label_values(&[on]).inc();
+        }
+    }
+}
 
 /// Whether the answer to the chunk under `header` is checked: with `rate`
 /// above 0, when the chunk is in the sample or the answer is its worker's
@@ -43,29 +267,30 @@ fn splitmix(x: u64) -> u64 {
     x ^ (x >> 31)
 }
 
-/// Flies `chunk` here and compares the worker's `answer` with it.
-pub(super) fn check(chunk: &Chunk, answer: &ChunkResult) -> Result<(), String> {
+/// `chunk` flown here.
+pub(super) fn fly_here(chunk: &Chunk) -> Result<ChunkResult, String> {
     let job = EvalJob::from_wire(&chunk.header, &chunk.genes)
         .map_err(|e| format!("its chunk cannot be flown here: {e}"))?;
-    let here = job.run();
-    if here.evaluations.len() != answer.evaluations.len() {
-        return Err("its answer has the wrong number of evaluations (--verify)".into());
+    Ok(job.run())
+}
+
+/// What in `answer` differs from `truth`, both answers to `chunk`.
+pub(super) fn differs(chunk: &Chunk, truth: &ChunkResult, answer: &ChunkResult) -> Option<String> {
+    if truth.evaluations.len() != answer.evaluations.len() {
+        return Some("its number of evaluations".into());
     }
-    let wrong = here
+    let wrong = truth
         .evaluations
         .iter()
         .zip(&answer.evaluations)
         .position(|(a, b)| a != b);
     if let Some(i) = wrong {
-        return Err(format!(
-            "its evaluation of genome {} differs from this host's (--verify)",
+        return Some(format!(
+            "its evaluation of genome {}",
             chunk.header.first_index + i as u64
         ));
     }
-    if here.actions != answer.actions {
-        return Err("its guided actions differ from this host's (--verify)".into());
-    }
-    Ok(())
+    (truth.actions != answer.actions).then(|| "its guided actions".into())
 }
 
 #[cfg(test)]

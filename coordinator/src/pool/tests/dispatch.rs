@@ -2,6 +2,7 @@
 //! are sent.
 
 use super::fake::{no_chunks, Nowhere, Recorder};
+use crate::pool::progress::Progress;
 use crate::pool::{Pool, DEPTH};
 use std::collections::VecDeque;
 
@@ -39,10 +40,11 @@ fn many_chunks_fill_every_queue_and_wait() {
 fn rebalanced(links: Vec<Vec<usize>>, todo: &[usize]) -> (Vec<Vec<usize>>, Vec<usize>) {
     let mut pool = pool(links);
     let chunks = no_chunks(6);
-    let mut todo: VecDeque<usize> = todo.iter().copied().collect();
-    pool.rebalance(&chunks, &mut todo);
+    let mut progress = Progress::<()>::new(chunks.len());
+    progress.todo = todo.iter().copied().collect();
+    pool.rebalance(&chunks, &mut progress);
     let held = pool.links.iter().map(|l| l.chunks.clone()).collect();
-    (held, todo.into())
+    (held, progress.todo.into())
 }
 
 #[test]

@@ -15,6 +15,8 @@ use std::time::{Duration, Instant};
 pub struct Recorder {
     pub id: u64,
     pub chunks: Vec<usize>,
+    /// Every chunk it was ever sent, in order.
+    pub sent: Vec<usize>,
     pub answer: Option<Vec<u8>>,
     pub fails_checks: bool,
     pub broken: bool,
@@ -25,6 +27,7 @@ impl Recorder {
         Recorder {
             id,
             chunks,
+            sent: Vec::new(),
             answer: None,
             fails_checks: false,
             broken: false,
@@ -65,6 +68,7 @@ impl WorkerLink for Recorder {
         _: Option<Duration>,
     ) -> Result<(), String> {
         self.chunks.push(chunk);
+        self.sent.push(chunk);
         Ok(())
     }
     fn poll(&mut self) -> (Vec<Answer>, Option<String>) {

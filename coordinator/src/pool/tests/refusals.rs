@@ -18,7 +18,7 @@ fn a_refused_answer_costs_its_worker_and_the_chunk_runs_elsewhere() {
         })
         .collect();
     let mut pool = pool(links, telemetry.clone());
-    let decode = |i: usize, body: &[u8], _| match body {
+    let decode = |i: usize, body: &[u8]| match body {
         b"fine!!!" => Ok(i * 10),
         _ => Err("does not decode".to_string()),
     };
@@ -70,7 +70,7 @@ fn a_link_that_fails_its_checks_keeps_its_good_answers() {
     let results = pool
         .run_chunks(
             &no_chunks(8),
-            |i, _, _| Ok::<_, String>(i),
+            |i, _| Ok::<_, String>(i),
             |i, _| seen.push(i),
         )
         .unwrap();

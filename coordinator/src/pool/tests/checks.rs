@@ -1,0 +1,128 @@
+//! `run_checked` (`--verify`) over links that answer at once: a checked
+//! answer is held while another worker flies its chunk again, taken where
+//! the two agree, and judged by the chunk flown here where they do not.
+
+use super::fake::{no_chunks, pool, Nowhere, Recorder};
+use crate::pool::verify::Check;
+use crate::pool::Pool;
+use lander_telemetry::{CoordinatorMetrics, Telemetry};
+use std::cell::Cell;
+use std::sync::Arc;
+
+const CHUNKS: usize = 6;
+
+/// Links answering every chunk `c` with `10c + lie`.
+fn workers(lies: &[(u64, u8)], telemetry: Telemetry) -> Pool<Nowhere> {
+    let links = lies
+        .iter()
+        .map(|&(id, lie)| Recorder {
+            answer: Some(vec![lie]),
+            ..Recorder::holding(id, Vec::new())
+        })
+        .collect();
+    pool(links, telemetry)
+}
+
+/// Runs `CHUNKS` chunks with every answer checked; returns the results
+/// and how many chunks were flown here.
+fn run_all_checked(pool: &mut Pool<Nowhere>) -> (Vec<usize>, usize) {
+    let flown_here = Cell::new(0);
+    let check = Check {
+        due: &|_, _| true,
+        here: &|c| {
+            flown_here.set(flown_here.get() + 1);
+            Ok(10 * c)
+        },
+        differs: &|c, a: &usize, b: &usize| (a != b).then(|| format!("its answer to chunk {c}")),
+    };
+    let decode = |c: usize, body: &[u8]| Ok(10 * c + usize::from(body[0]));
+    let results = pool
+        .run_checked(&no_chunks(CHUNKS), decode, &check, |_, _| {})
+        .unwrap();
+    (results, flown_here.get())
+}
+
+fn recorded() -> (tempfile::TempDir, Telemetry) {
+    let dir = tempfile::tempdir().unwrap();
+    let telemetry = Telemetry::new("t", Some(Arc::new(CoordinatorMetrics::new())));
+    telemetry.record_to(dir.path()).unwrap();
+    (dir, telemetry)
+}
+
+#[test]
+fn a_checked_answer_is_flown_again_on_another_worker_and_taken_where_they_agree() {
+    let (_dir, telemetry) = recorded();
+    let mut pool = workers(&[(7, 0), (8, 0)], telemetry.clone());
+    let (results, here) = run_all_checked(&mut pool);
+    assert_eq!(results, [0, 10, 20, 30, 40, 50]);
+    assert_eq!(here, 0, "two workers that agree need nothing flown here");
+    // Each chunk flown by one worker, and its check (sent as CHUNKS + c)
+    // by the other.
+    for c in 0..CHUNKS {
+        let by = |i: usize| pool.links.iter().filter(|l| l.sent.contains(&i)).count();
+        assert_eq!((by(c), by(CHUNKS + c)), (1, 1), "chunk {c}");
+        let same = pool
+            .links
+            .iter()
+            .any(|l| l.sent.contains(&c) && l.sent.contains(&(CHUNKS + c)));
+        assert!(!same, "chunk {c} was checked by the worker that flew it");
+    }
+    let metrics = String::from_utf8(telemetry.metrics().unwrap().encode()).unwrap();
+    assert!(
+        metrics.contains("lander_chunks_checked_total{on=\"worker\"} 6"),
+        "{metrics}"
+    );
+}
+
+#[test]
+fn where_two_workers_disagree_the_chunk_flown_here_decides() {
+    let (dir, telemetry) = recorded();
+    let mut pool = workers(&[(7, 1), (8, 0)], telemetry);
+    let (results, here) = run_all_checked(&mut pool);
+    assert_eq!(
+        results,
+        [0, 10, 20, 30, 40, 50],
+        "the liar's answers are not taken"
+    );
+    assert!(here >= 1);
+    let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
+    assert_eq!(ids, [8], "the liar is dropped, the honest worker kept");
+    assert!(pool.dropped.contains(&7));
+    let events = lander_telemetry::events::read(dir.path()).unwrap();
+    let refused: Vec<_> = events
+        .iter()
+        .filter(|e| e["event"] == "worker_refused")
+        .collect();
+    assert_eq!(refused.len(), 1, "{events:?}");
+    assert_eq!(refused[0]["worker"], "0000000000000007");
+    let why = refused[0]["why"].as_str().unwrap();
+    assert!(why.contains("differs from this host's (--verify"), "{why}");
+}
+
+#[test]
+fn with_one_worker_every_check_is_flown_here() {
+    let mut pool = workers(&[(8, 0)], Default::default());
+    let (results, here) = run_all_checked(&mut pool);
+    assert_eq!(results, [0, 10, 20, 30, 40, 50]);
+    assert_eq!(here, CHUNKS);
+    assert!(
+        pool.links[0].sent.iter().all(|&i| i < CHUNKS),
+        "no check sent"
+    );
+}
+
+#[test]
+fn two_wrong_workers_that_disagree_are_both_refused() {
+    let (dir, telemetry) = recorded();
+    let mut pool = workers(&[(7, 1), (9, 2), (8, 0)], telemetry);
+    let (results, _) = run_all_checked(&mut pool);
+    assert_eq!(results, [0, 10, 20, 30, 40, 50]);
+    let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
+    assert_eq!(ids, [8]);
+    let events = lander_telemetry::events::read(dir.path()).unwrap();
+    let refused = events
+        .iter()
+        .filter(|e| e["event"] == "worker_refused")
+        .count();
+    assert_eq!(refused, 2, "{events:?}");
+}
