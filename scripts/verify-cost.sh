@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # What --verify costs: `lander bench` over 2 iceoryx2 workers, 8 trials in
 # flight, at each RATE in turn, alternated ROUNDS times, printing the
-# iceoryx2-2 throughput and the coordinator's CPU per chunk (checking
-# flies the sampled chunks again on the coordinator), then the medians and
-# each rate's throughput over rate 0's.
+# iceoryx2-2 throughput and the coordinator's CPU per chunk (a sampled
+# chunk is flown again on the other worker), then the medians and each
+# rate's throughput over rate 0's.
 #
 #   scripts/verify-cost.sh BINDIR [ROUNDS] [RATES...]
 set -euo pipefail

@@ -96,14 +96,7 @@ impl<T: Transport> Pool<T> {
             // A worker that ran dry gets more before anything is decoded:
             // decoding can wait, an idle worker should not.
             progress.drop_answered();
-            progress.sort();
-            for (c, verdict) in self.dispatch_checks(chunks, &mut progress, check) {
-                self.apply(&mut progress, c, verdict, &mut distrusted, &mut finished);
-            }
-            self.drop_links(&mut progress.todo, |l| l.is_broken(), Cause::Refused);
-            self.rebalance(chunks, &mut progress);
-            progress.sort();
-            self.dispatch(chunks, &mut progress.todo);
+            self.hand_out(chunks, &mut progress, check, &mut distrusted, &mut finished);
             for (worker, a) in fresh {
                 if distrusted.contains(&worker) {
                     progress.again(a.chunk);
@@ -132,18 +125,44 @@ impl<T: Transport> Pool<T> {
             if progress.is_finished() {
                 break;
             }
+            // The checks of the answers just held, and the chunks of a
+            // worker just refused, go out now, not after a sleep.
+            self.hand_out(chunks, &mut progress, check, &mut distrusted, &mut finished);
             if self.links.is_empty() && self.children.is_empty() && self.opts.spawn > 0 {
                 return Err(EvalError::NoWorkers {
                     respawns: self.opts.max_respawns,
                 });
             }
             self.tell_waiting();
-            // A refused chunk goes out again at once, not after a sleep.
+            // A refused worker's chunks that found no room go out at the
+            // next pass, not after a sleep.
             if distrusted.is_empty() {
                 self.sleep()?;
             }
         }
         Ok(progress.into_results())
+    }
+
+    /// Hands out what waits: checks to workers other than the one they
+    /// check (deciding here those with no other worker to go to), then
+    /// chunks taken back from a busy worker for an idle one, then the
+    /// queue.
+    fn hand_out<R>(
+        &mut self,
+        chunks: &[Chunk],
+        progress: &mut Progress<R>,
+        check: &Check<'_, R>,
+        distrusted: &mut Vec<u64>,
+        finished: &mut impl FnMut(usize, &R),
+    ) {
+        progress.sort();
+        for (c, verdict) in self.dispatch_checks(chunks, progress, check) {
+            self.apply(progress, c, verdict, distrusted, finished);
+        }
+        self.drop_links(&mut progress.todo, |l| l.is_broken(), Cause::Refused);
+        self.rebalance(chunks, progress);
+        progress.sort();
+        self.dispatch(chunks, &mut progress.todo);
     }
 
     /// Carries out the verdict on an answer to `i` (a chunk or a check, as
