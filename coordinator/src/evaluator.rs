@@ -66,6 +66,8 @@ pub enum EvalError {
     Net(String),
     #[error("stopped by SIGINT or SIGTERM")]
     Interrupted,
+    #[error("a Q(λ) leg cannot start from its state: {0}")]
+    Training(String),
 }
 
 /// Flies batches and returns one evaluation per genome, in order.
@@ -201,6 +203,7 @@ impl Trainer for InProcess {
         let (tx, rx) = std::sync::mpsc::channel();
         let (pool, stop) = (&self.pool, &self.stop);
         let mut results: Vec<Option<TrainResult>> = jobs.iter().map(|_| None).collect();
+        let mut failure = None;
         std::thread::scope(|s| {
             s.spawn(move || {
                 pool.install(|| {
@@ -218,10 +221,18 @@ impl Trainer for InProcess {
                 })
             });
             for (i, result) in rx {
-                done(i, &result);
-                results[i] = Some(result);
+                match result {
+                    Ok(result) => {
+                        done(i, &result);
+                        results[i] = Some(result);
+                    }
+                    Err(e) => failure = Some(e),
+                }
             }
         });
+        if let Some(e) = failure {
+            return Err(EvalError::Training(e));
+        }
         if self.stop.asked() {
             return Err(EvalError::Interrupted);
         }

@@ -252,24 +252,61 @@ pub fn train(
     run.training()
 }
 
-/// A whole Q(λ) trial: everything [`run_training`] needs, so that any
-/// thread or worker can run it.
+/// A Q(λ) trial, or a leg of one: everything [`run_training`] needs, so
+/// that any thread or worker can run it. A leg starts where the trial
+/// stands after an earlier one and ends after episode `until`; a trial
+/// flown in legs is, episode for episode, the trial flown whole.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrainJob {
     pub env: Env,
     pub guide: GuideParams,
     pub learn: LearnParams,
     pub key: StreamKey,
+    /// Where the leg starts; `None` at the trial's start.
+    pub from: Option<LearnState>,
+    /// The episode the leg ends after (at most the trial's last).
+    pub until: u32,
 }
 
-/// A whole training trial as a worker serves it: the records and summary.
-pub fn run_training(job: &TrainJob) -> TrainResult {
-    let mut episodes = Vec::new();
-    let training = train(&job.env, &job.guide, &job.learn, job.key, &mut |e| {
-        episodes.push(e.clone());
-        ControlFlow::Continue(())
-    });
-    TrainResult { training, episodes }
+impl TrainJob {
+    /// The whole trial, from its start to its last episode.
+    pub fn whole(env: Env, guide: GuideParams, learn: LearnParams, key: StreamKey) -> TrainJob {
+        TrainJob {
+            env,
+            guide,
+            learn,
+            key,
+            from: None,
+            until: learn.episodes,
+        }
+    }
+}
+
+/// A trial's leg as a worker serves it: the leg's records, the summary so
+/// far and, short of the trial's end, where it stands. A starting state
+/// the trial could not have reached is refused, saying why.
+pub fn run_training(job: &TrainJob) -> Result<TrainResult, String> {
+    let mut run = match &job.from {
+        None => LearnRun::new(&job.env, &job.guide, &job.learn, job.key),
+        Some(state) => LearnRun::resume(&job.env, &job.guide, &job.learn, job.key, state)?,
+    };
+    if job.until < run.flown {
+        return Err(format!(
+            "a leg to episode {} from episode {}",
+            job.until, run.flown
+        ));
+    }
+    let mut episodes = Vec::with_capacity((job.until - run.flown) as usize);
+    while run.flown < job.until {
+        let Some(record) = run.step() else { break };
+        episodes.push(record);
+    }
+    let state = (run.flown < job.learn.episodes).then(|| run.state());
+    Ok(TrainResult {
+        training: run.training(),
+        episodes,
+        state,
+    })
 }
 
 #[cfg(test)]
@@ -298,6 +335,56 @@ mod tests {
                 assert_eq!(last.0, task.r() - before - 100.0);
             }
         }
+    }
+
+    #[test]
+    fn a_trial_flown_in_legs_is_the_trial_flown_whole() {
+        let learn = LearnParams {
+            episodes: 40,
+            ..LearnParams::default()
+        };
+        let whole_job = TrainJob::whole(
+            test_env(150.0, 200.0),
+            GuideParams::default(),
+            learn,
+            StreamKey::new(3, 2, 0, 0),
+        );
+        let whole = run_training(&whole_job).unwrap();
+        assert!(whole.is_plausible(&whole_job) && whole.state.is_none());
+        let (mut from, mut episodes, mut training) = (None, Vec::new(), None);
+        // An empty leg, and legs of every length, end to end.
+        for until in [7, 7, 8, 25, 40] {
+            let job = TrainJob {
+                from: from.clone(),
+                until,
+                ..whole_job.clone()
+            };
+            let leg = run_training(&job).unwrap();
+            assert!(leg.is_plausible(&job), "leg to {until}");
+            // The same answer is no answer to a leg of another start.
+            let other = TrainJob {
+                from: None,
+                ..job.clone()
+            };
+            assert!(until == 7 && from.is_none() || !leg.is_plausible(&other));
+            episodes.extend(leg.episodes);
+            from = leg.state;
+            training = Some(leg.training);
+        }
+        assert_eq!(episodes, whole.episodes);
+        assert_eq!(training, Some(whole.training));
+        assert!(from.is_none(), "the last leg ends the trial");
+        let backwards = TrainJob {
+            from: run_training(&TrainJob {
+                until: 9,
+                ..whole_job.clone()
+            })
+            .unwrap()
+            .state,
+            until: 3,
+            ..whole_job
+        };
+        assert!(run_training(&backwards).is_err());
     }
 
     #[test]

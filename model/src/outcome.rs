@@ -2,6 +2,7 @@
 //! scored) and what a Q(λ) trial produces. Results cross process
 //! boundaries, so they live here.
 
+use crate::learn::{LearnState, TrainJob};
 use serde::{Deserialize, Serialize};
 
 /// The lander's kinematic state.
@@ -88,29 +89,54 @@ pub struct Training {
     pub landing_rate_last_100: f64,
 }
 
-/// A whole Q(λ) trial's results, as a worker returns them.
+/// A Q(λ) trial's results, or a leg's of it (`TrainJob`), as a worker
+/// returns them.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrainResult {
+    /// The summary of every episode flown so far, the earlier legs' too.
     pub training: Training,
+    /// The leg's episodes.
     pub episodes: Vec<EpisodeRecord>,
+    /// Where the trial stands after a leg that ends before the trial does.
+    pub state: Option<LearnState>,
 }
 
 impl TrainResult {
-    /// True when the records are a possible trial of `episodes` episodes:
-    /// numbered in order, finite, and agreeing with the summary.
-    pub fn is_plausible(&self, episodes: u32) -> bool {
-        let numbered = self.episodes.iter().zip(1..).all(|(e, n)| e.episode == n);
+    /// True when the records are a possible answer to `job`: its leg's
+    /// episodes numbered in order, finite, agreeing with the summary, and
+    /// with the trial's state after a leg short of its end.
+    pub fn is_plausible(&self, job: &TrainJob) -> bool {
+        let (start, first_before) = job
+            .from
+            .as_ref()
+            .map_or((0, None), |s| (s.episodes, s.first_safe));
+        let until = job.until.min(job.learn.episodes);
+        let numbered = self
+            .episodes
+            .iter()
+            .zip(start + 1..)
+            .all(|(e, n)| e.episode == n);
         let finite = self
             .episodes
             .iter()
             .all(|e| e.reward.is_finite() && e.epsilon.is_finite());
-        let first = self.episodes.iter().find(|e| e.safe).map(|e| e.episode);
+        let first = first_before.or(self.episodes.iter().find(|e| e.safe).map(|e| e.episode));
         let rate = self.training.landing_rate_last_100;
-        self.episodes.len() == episodes as usize
-            && self.training.episodes == episodes
+        let state = match &self.state {
+            None => until == job.learn.episodes,
+            Some(s) => {
+                until < job.learn.episodes
+                    && s.episodes == until
+                    && s.first_safe == self.training.first_safe
+            }
+        };
+        start <= until
+            && self.episodes.len() == (until - start) as usize
+            && self.training.episodes == until
             && numbered
             && finite
             && first == self.training.first_safe
             && (0.0..=1.0).contains(&rate)
+            && state
     }
 }

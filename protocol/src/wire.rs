@@ -8,10 +8,14 @@
 //! guided GA, the rewritten actions. That is two variable-length parts, which
 //! one plain slice cannot hold; postcard is also what crosses hosts.
 //!
-//! A job of kind [`KIND_TRAIN`] is a whole Q(λ) trial instead: no genes, and
-//! a postcard [`TrainResult`] back.
+//! A job of kind [`KIND_TRAIN`] is a Q(λ) trial instead, or a leg of one
+//! (`TrainJob`): a leg that starts after the trial's start carries the
+//! trial's state, postcard-encoded and packed two bytes to a [`WireGene`]
+//! in the genes' place (`pack_state`), and a postcard [`TrainResult`]
+//! comes back.
 
 use iceoryx2::prelude::ZeroCopySend;
+use lander_model::learn::LearnState;
 use lander_model::{
     evaluate, Action, Env, Evaluation, Gene, GuideParams, LearnParams, Pass, StreamKey, TrainJob,
     TrainResult,
@@ -19,7 +23,7 @@ use lander_model::{
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever any layout here changes.
-pub const PROTOCOL_VERSION: u32 = 4;
+pub const PROTOCOL_VERSION: u32 = 5;
 
 /// Job kinds.
 pub const KIND_EVALUATE: u32 = 0;
@@ -63,6 +67,11 @@ pub struct JobHeader {
     pub env: Env,
     pub guide: GuideParams,
     pub learn: LearnParams,
+    /// A training job: the episode its leg ends after.
+    pub until: u32,
+    /// A training job: the bytes of the state its leg starts from, packed
+    /// in the genes' place; 0 at the trial's start.
+    pub state_len: u32,
 }
 
 /// What became of a job.
@@ -152,11 +161,19 @@ pub enum WireError {
     Implausible(usize),
     #[error("unknown job kind {0}")]
     Kind(u32),
-    #[error("a training job carries no genes, but {0} arrived")]
-    GenesInTraining(usize),
+    #[error("a training job's state of {len} bytes needs {expected} genes, but {got} arrived")]
+    StateLength {
+        len: u32,
+        expected: usize,
+        got: usize,
+    },
+    #[error("a training job's state does not decode: {0}")]
+    State(String),
+    #[error("a training job's leg ends after episode {until}, beyond its {episodes} episodes")]
+    Until { until: u32, episodes: u32 },
     #[error("training parameters out of range: {0}")]
     Learning(lander_model::check::ParamError),
-    #[error("training result is not a possible trial of {0} episodes")]
+    #[error("training result is not a possible leg to episode {0}")]
     ImplausibleTraining(u32),
 }
 
@@ -196,18 +213,63 @@ impl Job {
 }
 
 fn train_from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<TrainJob, WireError> {
-    if !genes.is_empty() {
-        return Err(WireError::GenesInTraining(genes.len()));
+    let expected = (h.state_len as usize).div_ceil(2);
+    if genes.len() != expected {
+        return Err(WireError::StateLength {
+            len: h.state_len,
+            expected,
+            got: genes.len(),
+        });
     }
     // The same check as the run configuration's: among other things
     // it bounds the 2^memory_bits weights the worker allocates.
     h.learn.check().map_err(WireError::Learning)?;
+    if h.until > h.learn.episodes {
+        return Err(WireError::Until {
+            until: h.until,
+            episodes: h.learn.episodes,
+        });
+    }
+    // Whether the state fits the trial is `run_training`'s check.
+    let from = match h.state_len {
+        0 => None,
+        len => {
+            let bytes = unpack_state(genes, len as usize);
+            Some(postcard::from_bytes(&bytes).map_err(|e| WireError::State(e.to_string()))?)
+        }
+    };
     Ok(TrainJob {
         env: h.env,
         guide: h.guide,
         learn: h.learn,
         key: h.key,
+        from,
+        until: h.until,
     })
+}
+
+/// A leg's starting state as genes, two bytes to a gene, and its length in
+/// bytes (`None`: no genes, length 0).
+pub fn pack_state(state: Option<&LearnState>) -> (Vec<WireGene>, u32) {
+    let Some(state) = state else {
+        return (Vec::new(), 0);
+    };
+    let bytes = encode(state);
+    let genes = bytes
+        .chunks(2)
+        .map(|pair| WireGene {
+            action: pair[0],
+            duration: pair.get(1).copied().unwrap_or(0),
+        })
+        .collect();
+    (genes, bytes.len() as u32)
+}
+
+/// The first `len` bytes packed in `genes` (checked to be enough).
+fn unpack_state(genes: &[WireGene], len: usize) -> Vec<u8> {
+    let mut bytes: Vec<u8> = genes.iter().flat_map(|g| [g.action, g.duration]).collect();
+    bytes.truncate(len);
+    bytes
 }
 
 impl EvalJob {
@@ -366,12 +428,12 @@ impl ChunkResult {
     }
 }
 
-/// Decodes and checks a training result for a trial of `episodes` episodes.
-pub fn decode_training(bytes: &[u8], episodes: u32) -> Result<TrainResult, WireError> {
+/// Decodes and checks a training result as the answer to `job`.
+pub fn decode_training(bytes: &[u8], job: &TrainJob) -> Result<TrainResult, WireError> {
     let r: TrainResult =
         postcard::from_bytes(bytes).map_err(|e| WireError::Decode(e.to_string()))?;
-    if !r.is_plausible(episodes) {
-        return Err(WireError::ImplausibleTraining(episodes));
+    if !r.is_plausible(job) {
+        return Err(WireError::ImplausibleTraining(job.until));
     }
     Ok(r)
 }

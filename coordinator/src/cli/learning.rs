@@ -1,8 +1,9 @@
-//! `lander run --method qlearning`: one Q(λ) trial, in-process with a
-//! progress bar over episodes and a checkpoint every `--checkpoint-every`
-//! episodes and when stopped, or as one `Train` job on a worker, written to
-//! a folder. The worker holds the agent, so a trial on a worker is
-//! checkpointed only at its start: resumed, it is flown again whole.
+//! `lander run --method qlearning`: one Q(λ) trial, written to a folder.
+//! In-process it flies with a progress bar over episodes and a checkpoint
+//! every `--checkpoint-every` episodes and when stopped. On workers it
+//! flies in legs of `--checkpoint-every` episodes, each one job that
+//! carries the trial's state to a worker and brings it back, checkpointed
+//! between legs; a trial stopped mid-leg resumes from the leg's start.
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -33,9 +34,9 @@ struct LearnSummary {
     wall_s: f64,
 }
 
-/// A Q(λ) trial from its start: in-process when `pool` is `None`,
-/// checkpointed every `every` episodes (0: only when stopped), else as
-/// one job on the pool.
+/// A Q(λ) trial from its start: in-process when `pool` is `None`, else
+/// in legs on the pool; checkpointed every `every` episodes (0: in-process
+/// only when stopped, on the pool at its start alone).
 pub fn learn(
     cfg: &RunConfig,
     out: &Path,
@@ -44,23 +45,24 @@ pub fn learn(
     every: u64,
     stop: &Stop,
 ) -> anyhow::Result<()> {
-    let key = StreamKey::new(cfg.seed, cfg.trial, 0, 0);
-    let env = cfg.env(0);
+    let run = LearnRun::new(&cfg.env(0), &cfg.guided, &cfg.qlearning, key(cfg));
+    let log = RunLog::create(out, EPISODES)?;
     let started = Instant::now();
     let training = match pool {
-        None => {
-            let run = LearnRun::new(&env, &cfg.guided, &cfg.qlearning, key);
-            let log = RunLog::create(out, EPISODES)?;
-            in_process(cfg, out, run, log, every, stop)?
-        }
+        None => in_process(cfg, out, run, log, every, stop)?,
         Some(pool) => {
-            // The trial's start, so that `--resume` finds it after a kill.
-            let start = LearnRun::new(&env, &cfg.guided, &cfg.qlearning, key).state();
+            // The trial's start, so that `--resume` finds it after a kill
+            // during the first leg.
+            let start = run.state();
             save(cfg, out, &start)?;
-            on_a_worker(cfg, out, pool)?
+            on_workers(cfg, out, start, log, pool, every)?
         }
     };
     finish(cfg, out, json, &training, started)
+}
+
+fn key(cfg: &RunConfig) -> StreamKey {
+    StreamKey::new(cfg.seed, cfg.trial, 0, 0)
 }
 
 fn save(cfg: &RunConfig, out: &Path, state: &LearnState) -> anyhow::Result<()> {
@@ -75,8 +77,8 @@ fn save(cfg: &RunConfig, out: &Path, state: &LearnState) -> anyhow::Result<()> {
 }
 
 /// `lander run --resume DIR` of a Q(λ) trial saved at `state`: its log cut
-/// back to the checkpoint, and on in-process to the end; or whole on
-/// `pool`, which the caller gives only for a trial saved at its start.
+/// back to the checkpoint, and on to the end, in-process or in legs on
+/// `pool`.
 pub fn resume(
     cfg: &RunConfig,
     dir: &Path,
@@ -86,20 +88,16 @@ pub fn resume(
     every: u64,
     stop: &Stop,
 ) -> anyhow::Result<()> {
-    if let Some(pool) = pool {
-        let started = Instant::now();
-        let training = on_a_worker(cfg, dir, pool)?;
-        return finish(cfg, dir, json, &training, started);
-    }
-    let key = StreamKey::new(cfg.seed, cfg.trial, 0, 0);
-    let run =
-        LearnRun::resume(&cfg.env(0), &cfg.guided, &cfg.qlearning, key, state).map_err(|e| {
+    // Checked here for both: a worker would refuse it less clearly.
+    let run = LearnRun::resume(&cfg.env(0), &cfg.guided, &cfg.qlearning, key(cfg), state).map_err(
+        |e| {
             anyhow::anyhow!(
                 "{}: the saved trial does not fit its configuration: {e}",
                 dir.join(checkpoint::FILE).display()
             )
-        })?;
-    // A trial saved at its start (on a worker) may have no log yet.
+        },
+    )?;
+    // A trial saved at its start (on workers) may have no log yet.
     let log = match state.episodes {
         0 => RunLog::create(dir, EPISODES)?,
         n => RunLog::resume(dir, EPISODES, u64::from(n))?,
@@ -110,7 +108,13 @@ pub fn resume(
         state.episodes
     );
     let started = Instant::now();
-    let training = in_process(cfg, dir, run, log, every, stop)?;
+    let training = match pool {
+        None => in_process(cfg, dir, run, log, every, stop)?,
+        Some(pool) => {
+            drop(run);
+            on_workers(cfg, dir, state.clone(), log, pool, every)?
+        }
+    };
     finish(cfg, dir, json, &training, started)
 }
 
@@ -161,37 +165,63 @@ fn in_process(
     Ok(run.training())
 }
 
-/// The whole trial as one job on a worker; its episodes are logged when
-/// it returns.
-fn on_a_worker(
+/// The trial's episodes after `from`, in legs on the pool that end at
+/// multiples of `every` (one leg to the end for 0): each leg's episodes
+/// are logged and the trial's state saved when the leg returns.
+fn on_workers(
     cfg: &RunConfig,
     out: &Path,
+    from: LearnState,
+    mut log: RunLog,
     mut pool: Box<dyn Backend>,
+    every: u64,
 ) -> anyhow::Result<Training> {
-    let job = TrainJob {
-        env: cfg.env(0),
-        guide: cfg.guided,
-        learn: cfg.qlearning,
-        key: StreamKey::new(cfg.seed, cfg.trial, 0, 0),
-    };
     let bar = bar(cfg);
-    let result = pool
-        .train(&[job], &mut |_, _| ())
-        .with_context(|| {
-            format!(
-                "the trial stopped; `lander run --resume {}` flies it again from its start",
-                out.display()
-            )
-        })?
-        .pop()
-        .context("the pool returned no result for the trial")?;
-    bar.finish_and_clear();
-    let mut log = RunLog::create(out, EPISODES)?;
-    for e in &result.episodes {
-        log.write(e)?;
+    let mut from = Some(from);
+    loop {
+        let start = from.as_ref().map_or(0, |s| s.episodes);
+        bar.set_position(u64::from(start));
+        let until = leg_end(start, every, cfg.qlearning.episodes);
+        let job = TrainJob {
+            from: from.take(),
+            until,
+            ..TrainJob::whole(cfg.env(0), cfg.guided, cfg.qlearning, key(cfg))
+        };
+        let result = pool
+            .train(std::slice::from_ref(&job), &mut |_, _| ())
+            .with_context(|| {
+                format!(
+                    "the trial stopped; `lander run --resume {}` goes on after episode {start}",
+                    out.display()
+                )
+            })?
+            .pop()
+            .context("the pool returned no result for the trial")?;
+        for e in &result.episodes {
+            log.write(e)?;
+        }
+        log.sync()?;
+        match result.state {
+            Some(state) => {
+                save(cfg, out, &state)?;
+                from = Some(state);
+            }
+            None => {
+                bar.finish_and_clear();
+                return Ok(result.training);
+            }
+        }
     }
-    log.sync()?;
-    Ok(result.training)
+}
+
+/// Where a leg from episode `start` ends: at the next multiple of `every`
+/// (at the trial's end for 0), and never past the trial's `episodes`.
+fn leg_end(start: u32, every: u64, episodes: u32) -> u32 {
+    if every == 0 {
+        return episodes;
+    }
+    let next = (u64::from(start) / every + 1) * every;
+    next.min(u64::from(episodes)) as u32
 }
 
 fn bar(cfg: &RunConfig) -> ProgressBar {
@@ -250,4 +280,19 @@ fn finish(
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn legs_end_at_the_checkpoints_and_the_trial() {
+        use super::leg_end;
+        assert_eq!(leg_end(0, 2000, 5000), 2000);
+        assert_eq!(leg_end(2000, 2000, 5000), 4000);
+        assert_eq!(leg_end(4000, 2000, 5000), 5000);
+        // From a checkpoint taken when stopped, to the next multiple.
+        assert_eq!(leg_end(2137, 2000, 60_000), 4000);
+        assert_eq!(leg_end(0, 0, 5000), 5000);
+        assert_eq!(leg_end(0, 100_000, 5000), 5000);
+    }
 }

@@ -167,13 +167,6 @@ fn resume(args: &RunArgs, dir: &Path, watch: &Watch, stop: &Stop) -> anyhow::Res
     let state = match saved.state {
         Saved::Evolving(state) => state,
         Saved::Learning(state) => {
-            anyhow::ensure!(
-                args.transport.in_process() || state.episodes == 0,
-                "{} holds a Q(λ) trial after episode {}, which goes on in this process: \
-                 resume it without --workers or --attach",
-                dir.join(checkpoint::FILE).display(),
-                state.episodes
-            );
             let pool = args.transport.pool(&watch.telemetry, stop)?;
             watch.begin(dir, "run --resume")?;
             let every = args.checkpoint_every(cfg.method);

@@ -96,11 +96,6 @@ pub struct TransportArgs {
 const DEFAULT_VERIFY_ZENOH: f64 = 0.02;
 
 impl TransportArgs {
-    /// Whether the flags ask for evaluation in this process.
-    pub fn in_process(&self) -> bool {
-        self.workers == 0 && !self.attach
-    }
-
     /// The run's telemetry, under `--run-id` or a random run id, with its
     /// metrics endpoint when `--metrics` asks for one.
     pub fn watch(&self) -> anyhow::Result<Watch> {

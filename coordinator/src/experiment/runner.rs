@@ -174,11 +174,13 @@ fn learn<K: Copy>(
     }
     let jobs: Vec<TrainJob> = tasks
         .iter()
-        .map(|Task { cfg, .. }| TrainJob {
-            env: cfg.env(0),
-            guide: cfg.guided,
-            learn: cfg.qlearning,
-            key: StreamKey::new(cfg.seed, cfg.trial, 0, 0),
+        .map(|Task { cfg, .. }| {
+            TrainJob::whole(
+                cfg.env(0),
+                cfg.guided,
+                cfg.qlearning,
+                StreamKey::new(cfg.seed, cfg.trial, 0, 0),
+            )
         })
         .collect();
     for task in tasks {

@@ -9,13 +9,15 @@ use super::{Pool, Transport};
 use crate::evaluator::{Batch, EvalError, Evaluator, Trainer};
 use lander_model::{Action, Evaluation, TrainJob, TrainResult};
 use lander_protocol::wire::{
-    decode_training, ChunkResult, JobHeader, WireGene, KIND_EVALUATE, KIND_TRAIN, PROTOCOL_VERSION,
+    decode_training, pack_state, ChunkResult, JobHeader, WireGene, KIND_EVALUATE, KIND_TRAIN,
+    PROTOCOL_VERSION,
 };
 use std::ops::Range;
 
 impl<T: Transport> Trainer for Pool<T> {
-    /// One chunk per trial, with no deadline: a dead trainer is still found
-    /// by its exit or its node's death.
+    /// One chunk per trial or leg, with no deadline: a dead trainer is
+    /// still found by its exit or its node's death. A leg's starting state
+    /// travels in the genes' place (`pack_state`).
     fn train(
         &mut self,
         trials: &[TrainJob],
@@ -23,23 +25,28 @@ impl<T: Transport> Trainer for Pool<T> {
     ) -> Result<Vec<TrainResult>, EvalError> {
         let chunks: Vec<Chunk> = trials
             .iter()
-            .map(|t| Chunk {
-                header: JobHeader {
-                    version: PROTOCOL_VERSION,
-                    kind: KIND_TRAIN,
-                    key: t.key,
-                    env: t.env,
-                    guide: t.guide,
-                    learn: t.learn,
-                    ..JobHeader::default()
-                },
-                genes: Vec::new(),
-                timed: false,
+            .map(|t| {
+                let (genes, state_len) = pack_state(t.from.as_ref());
+                Chunk {
+                    header: JobHeader {
+                        version: PROTOCOL_VERSION,
+                        kind: KIND_TRAIN,
+                        key: t.key,
+                        env: t.env,
+                        guide: t.guide,
+                        learn: t.learn,
+                        until: t.until,
+                        state_len,
+                        ..JobHeader::default()
+                    },
+                    genes,
+                    timed: false,
+                }
             })
             .collect();
         self.run_chunks(
             &chunks,
-            |i, body| decode_training(body, trials[i].learn.episodes).map_err(|e| e.to_string()),
+            |i, body| decode_training(body, &trials[i]).map_err(|e| e.to_string()),
             done,
         )
     }

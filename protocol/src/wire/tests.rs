@@ -139,15 +139,59 @@ fn results_round_trip_and_bad_ones_are_refused() {
 }
 
 #[test]
-fn training_jobs_carry_no_genes_and_sane_parameters() {
+fn training_jobs_carry_their_state_and_sane_parameters() {
     let mut h = header(0, 0);
     h.kind = KIND_TRAIN;
     h.learn = LearnParams::default();
-    assert!(matches!(Job::from_wire(&h, &[]), Ok(Job::Train(_))));
+    h.until = h.learn.episodes;
+    assert!(matches!(
+        Job::from_wire(&h, &[]),
+        Ok(Job::Train(TrainJob { from: None, .. }))
+    ));
     assert_eq!(
         Job::from_wire(&h, &[gene(0, 1)]),
-        Err(WireError::GenesInTraining(1))
+        Err(WireError::StateLength {
+            len: 0,
+            expected: 0,
+            got: 1
+        })
     );
+    // A leg's state, of an odd number of bytes and of an even one, comes
+    // through whole.
+    for weights in [vec![(3, 0.5)], vec![(3, 0.5), (70_000, -1.25e-3)]] {
+        let state = LearnState {
+            episodes: 40,
+            rng_word: 123_456_789,
+            first_safe: Some(12),
+            recent: vec![true, false, true],
+            weights,
+        };
+        let (genes, len) = pack_state(Some(&state));
+        let mut leg = h;
+        leg.state_len = len;
+        leg.until = 100;
+        let Ok(Job::Train(job)) = Job::from_wire(&leg, &genes) else {
+            panic!("the leg was refused");
+        };
+        assert_eq!((job.from, job.until), (Some(state), 100));
+        leg.state_len = len + 2;
+        assert!(matches!(
+            Job::from_wire(&leg, &genes),
+            Err(WireError::StateLength { .. })
+        ));
+    }
+    let mut garbage = h;
+    garbage.state_len = 4;
+    assert!(matches!(
+        Job::from_wire(&garbage, &[gene(0xff, 0xff), gene(0xff, 0xff)]),
+        Err(WireError::State(_))
+    ));
+    let mut beyond = h;
+    beyond.until = h.learn.episodes + 1;
+    assert!(matches!(
+        Job::from_wire(&beyond, &[]),
+        Err(WireError::Until { .. })
+    ));
     h.learn.memory_bits = 60;
     assert!(
         matches!(Job::from_wire(&h, &[]), Err(WireError::Learning(e)) if e.field == "qlearning.memory_bits")
@@ -179,15 +223,42 @@ fn training_results_are_checked() {
             landing_rate_last_100: 0.5,
         },
         episodes: vec![record(1, false), record(2, true)],
+        state: None,
     };
-    assert_eq!(decode_training(&encode(&good), 2), Ok(good.clone()));
-    assert!(decode_training(&encode(&good), 3).is_err());
+    let trial = |episodes| {
+        TrainJob::whole(
+            Env::default(),
+            GuideParams::default(),
+            LearnParams {
+                episodes,
+                ..LearnParams::default()
+            },
+            StreamKey::default(),
+        )
+    };
+    assert_eq!(decode_training(&encode(&good), &trial(2)), Ok(good.clone()));
+    assert!(decode_training(&encode(&good), &trial(3)).is_err());
     let mut lying = good.clone();
     lying.training.first_safe = Some(1);
-    assert!(decode_training(&encode(&lying), 2).is_err());
-    let mut nan = good;
+    assert!(decode_training(&encode(&lying), &trial(2)).is_err());
+    let mut nan = good.clone();
     nan.episodes[0].reward = f64::NAN;
-    assert!(decode_training(&encode(&nan), 2).is_err());
+    assert!(decode_training(&encode(&nan), &trial(2)).is_err());
+    // A leg short of the trial's end must bring the trial's state.
+    let leg = TrainJob {
+        until: 2,
+        ..trial(5)
+    };
+    assert!(decode_training(&encode(&good), &leg).is_err());
+    let mut with_state = good;
+    with_state.state = Some(LearnState {
+        episodes: 2,
+        rng_word: 0,
+        first_safe: Some(2),
+        recent: vec![false, true],
+        weights: Vec::new(),
+    });
+    assert!(decode_training(&encode(&with_state), &leg).is_ok());
 }
 
 use proptest::prelude::*;

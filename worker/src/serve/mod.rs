@@ -92,7 +92,17 @@ pub fn answer(
     let started_ns = host_clock_ns();
     let (status, body) = match Job::from_wire(header, genes) {
         Ok(Job::Evaluate(job)) => (Status::Done, lie(job.run()).encode()),
-        Ok(Job::Train(job)) => (Status::Done, wire::encode(&run_training(&job))),
+        Ok(Job::Train(job)) => match run_training(&job) {
+            Ok(result) => (Status::Done, wire::encode(&result)),
+            Err(e) => {
+                let why = format!("the leg's starting state does not fit its trial: {e}");
+                say(
+                    Note::Warning,
+                    &format!("refusing job {}: {why}", header.job_id),
+                );
+                (Status::BadJob, why.into_bytes())
+            }
+        },
         Err(e) => {
             say(
                 Note::Warning,
