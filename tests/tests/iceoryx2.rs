@@ -431,6 +431,8 @@ fn a_spawned_worker_whose_coordinator_died_before_it_joined_stops() {
         said()
     );
     assert!(said().contains("is gone; stopping"), "{}", said());
+    assert_eq!(iox.root_files(), Vec::<std::path::PathBuf>::new());
+    assert_eq!(iox.shm_files(), Vec::<String>::new());
 }
 
 #[test]

@@ -199,6 +199,7 @@ fn main() -> ExitCode {
             let why = match exit {
                 Exit::RunFinished => "run finished",
                 Exit::CoordinatorGone => "the coordinator is gone",
+                Exit::Signal if parent::gone() => "the coordinator is gone",
                 Exit::Signal => "stopped by signal",
             };
             let jobs = serve::answered();

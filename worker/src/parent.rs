@@ -6,7 +6,16 @@
 //! its transport cannot: a coordinator killed before the worker ever
 //! reached it, whose services may be gone before the worker looks.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
+
+/// Set once the parent is found gone, before the worker is asked to stop.
+static GONE: AtomicBool = AtomicBool::new(false);
+
+/// Whether the worker was stopped because its coordinator is gone.
+pub fn gone() -> bool {
+    GONE.load(Ordering::Relaxed)
+}
 
 /// How often the parent is looked at: a sleeping thread's wake-up, no CPU
 /// to speak of.
@@ -24,6 +33,7 @@ pub fn watch(parent: u32) -> std::io::Result<()> {
             tracing::warn!(
                 "the coordinator that started this worker (pid {parent}) is gone; stopping"
             );
+            GONE.store(true, Ordering::Relaxed);
             // SAFETY: kill(2) on this process's own pid with a valid signal
             // number touches no memory of ours; both transports' loops
             // handle SIGTERM as a request to stop.

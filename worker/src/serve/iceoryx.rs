@@ -16,12 +16,7 @@ use std::time::Duration;
 const HOUSEKEEPING: Duration = Duration::from_millis(500);
 
 /// Serves run `run` as worker `id`, telling the user through `say`.
-pub fn serve(
-    run: &str,
-    id: u64,
-    mut spin: Spin,
-    say: &dyn Fn(Note, &str),
-) -> Result<Exit, IpcError> {
+pub fn serve(run: &str, id: u64, spin: Spin, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcError> {
     iox::quiet_logs();
     let config = iox::config()?;
     let names = RunNames::new(run);
@@ -30,11 +25,29 @@ pub fn serve(
         &config,
         SignalHandlingMode::HandleTerminationRequests,
     )?;
+    let exit = serve_on(&node, &names, &config, id, spin, say);
+    // However it ends, the worker clears what dead processes of the run
+    // left, a killed coordinator's node above all, as the coordinator does
+    // when its run ends: a worker stopped because its coordinator is gone
+    // (`parent.rs`) may be the last process of the run.
+    node.try_cleanup_dead_nodes();
+    exit
+}
+
+/// Serves the run from `node`, once its coordinator exists.
+fn serve_on(
+    node: &Node<ipc::Service>,
+    names: &RunNames,
+    config: &Config,
+    id: u64,
+    mut spin: Spin,
+    say: &dyn Fn(Note, &str),
+) -> Result<Exit, IpcError> {
     // Install the signal handler now, so SIGTERM while waiting ends cleanly.
-    if terminated(&node, Duration::ZERO) {
+    if terminated(node, Duration::ZERO) {
         return Ok(Exit::Signal);
     }
-    if !wait_for_run(&node, &names, &config, say)? {
+    if !wait_for_run(node, names, config, say)? {
         return Ok(Exit::Signal);
     }
 
@@ -71,7 +84,7 @@ pub fn serve(
     announce()?;
     say(
         Note::Info,
-        &format!("serving run {run} as worker {id:016x}"),
+        &format!("serving run {} as worker {id:016x}", names.run()),
     );
 
     let waitset = WaitSetBuilder::new()
