@@ -51,23 +51,23 @@ fn serve_on(
         return Ok(Exit::Signal);
     }
 
-    let eval = iox::eval_service(&node, &names.eval(id))?;
+    let eval = iox::eval_service(node, &names.eval(id))?;
     let server = eval
         .server_builder()
         .initial_max_slice_len(4096)
         .allocation_strategy(AllocationStrategy::PowerOfTwo)
         .create()
         .map_err(iox::fail("creating the evaluation server"))?;
-    let jobs = iox::event_service(&node, &names.jobs(id))?
+    let jobs = iox::event_service(node, &names.jobs(id))?
         .listener_builder()
         .create()
         .map_err(iox::fail("listening for jobs"))?;
-    let wake_service = iox::event_service(&node, &names.wake())?;
+    let wake_service = iox::event_service(node, &names.wake())?;
     let wake = wake_service
         .notifier_builder()
         .create()
         .map_err(iox::fail("creating the wake notifier"))?;
-    let announcer = iox::register_service(&node, &names.register())?
+    let announcer = iox::register_service(node, &names.register())?
         .publisher_builder()
         .create()
         .map_err(iox::fail("creating the announcer"))?;
