@@ -2,12 +2,11 @@
 //! answer is held while another worker flies its chunk again, taken where
 //! the two agree, and judged by the chunk flown here where they do not.
 
-use super::fake::{no_chunks, pool, Nowhere, Recorder};
+use super::fake::{assert_refused_alone, no_chunks, pool, recorded, Nowhere, Recorder};
 use crate::pool::verify::Check;
 use crate::pool::Pool;
-use lander_telemetry::{CoordinatorMetrics, Telemetry};
+use lander_telemetry::Telemetry;
 use std::cell::Cell;
-use std::sync::Arc;
 
 const CHUNKS: usize = 6;
 
@@ -40,13 +39,6 @@ fn run_all_checked(pool: &mut Pool<Nowhere>) -> (Vec<usize>, usize) {
         .run_checked(&no_chunks(CHUNKS), decode, &check, |_, _| {})
         .unwrap();
     (results, flown_here.get())
-}
-
-fn recorded() -> (tempfile::TempDir, Telemetry) {
-    let dir = tempfile::tempdir().unwrap();
-    let telemetry = Telemetry::new("t", Some(Arc::new(CoordinatorMetrics::new())));
-    telemetry.record_to(dir.path()).unwrap();
-    (dir, telemetry)
 }
 
 #[test]
@@ -85,18 +77,8 @@ fn where_two_workers_disagree_the_chunk_flown_here_decides() {
         "the liar's answers are not taken"
     );
     assert!(here >= 1);
-    let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
-    assert_eq!(ids, [8], "the liar is dropped, the honest worker kept");
-    assert!(pool.dropped.contains(&7));
-    let events = lander_telemetry::events::read(dir.path()).unwrap();
-    let refused: Vec<_> = events
-        .iter()
-        .filter(|e| e["event"] == "worker_refused")
-        .collect();
-    assert_eq!(refused.len(), 1, "{events:?}");
-    assert_eq!(refused[0]["worker"], "0000000000000007");
-    let why = refused[0]["why"].as_str().unwrap();
-    assert!(why.contains("differs from this host's (--verify"), "{why}");
+    let why = "differs from this host's (--verify";
+    assert_refused_alone(&pool, dir.path(), 7, why, &[8]);
 }
 
 #[test]

@@ -160,3 +160,35 @@ pub fn no_chunks(n: usize) -> Vec<Chunk> {
         })
         .collect()
 }
+
+/// Telemetry with metrics, recording events to a new folder.
+pub fn recorded() -> (tempfile::TempDir, lander_telemetry::Telemetry) {
+    let dir = tempfile::tempdir().unwrap();
+    let metrics = std::sync::Arc::new(lander_telemetry::CoordinatorMetrics::new());
+    let telemetry = lander_telemetry::Telemetry::new("t", Some(metrics));
+    telemetry.record_to(dir.path()).unwrap();
+    (dir, telemetry)
+}
+
+/// Checks that `worker`, and it alone, was refused, for a reason that
+/// says `why`, and dropped for good, leaving the links `kept`.
+pub fn assert_refused_alone(
+    pool: &Pool<Nowhere>,
+    events: &std::path::Path,
+    worker: u64,
+    why: &str,
+    kept: &[u64],
+) {
+    let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
+    assert_eq!(ids, kept, "the refused worker is dropped, the others kept");
+    assert!(pool.dropped.contains(&worker));
+    let events = lander_telemetry::events::read(events).unwrap();
+    let refused: Vec<_> = events
+        .iter()
+        .filter(|e| e["event"] == "worker_refused")
+        .collect();
+    assert_eq!(refused.len(), 1, "{events:?}");
+    assert_eq!(refused[0]["worker"], format!("{worker:016x}"));
+    let said = refused[0]["why"].as_str().unwrap();
+    assert!(said.contains(why), "{said}");
+}

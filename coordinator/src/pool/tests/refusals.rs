@@ -1,15 +1,11 @@
 //! `run_chunks` over links that answer at once, one of them with answers
 //! that fail to decode.
 
-use super::fake::{no_chunks, pool, Recorder};
-use lander_telemetry::{CoordinatorMetrics, Telemetry};
-use std::sync::Arc;
+use super::fake::{assert_refused_alone, no_chunks, pool, recorded, Recorder};
 
 #[test]
 fn a_refused_answer_costs_its_worker_and_the_chunk_runs_elsewhere() {
-    let dir = tempfile::tempdir().unwrap();
-    let telemetry = Telemetry::new("t", Some(Arc::new(CoordinatorMetrics::new())));
-    telemetry.record_to(dir.path()).unwrap();
+    let (dir, telemetry) = recorded();
     let links = [(7, b"garbage"), (8, b"fine!!!")]
         .into_iter()
         .map(|(id, body)| Recorder {
@@ -29,20 +25,7 @@ fn a_refused_answer_costs_its_worker_and_the_chunk_runs_elsewhere() {
     assert_eq!(results, [0, 10, 20, 30, 40, 50]);
     seen.sort_unstable();
     assert_eq!(seen, [0, 1, 2, 3, 4, 5], "each chunk finished once");
-    let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
-    assert_eq!(ids, [8], "the worker that answered badly is dropped");
-    assert!(pool.dropped.contains(&7));
-    let events = lander_telemetry::events::read(dir.path()).unwrap();
-    let refused: Vec<_> = events
-        .iter()
-        .filter(|e| e["event"] == "worker_refused")
-        .collect();
-    assert_eq!(refused.len(), 1, "{events:?}");
-    assert_eq!(refused[0]["worker"], "0000000000000007");
-    assert!(refused[0]["why"]
-        .as_str()
-        .unwrap()
-        .contains("does not decode"));
+    assert_refused_alone(&pool, dir.path(), 7, "does not decode", &[8]);
     let metrics = String::from_utf8(telemetry.metrics().unwrap().encode()).unwrap();
     assert!(
         metrics.contains("lander_chunks_refused_total 1"),
