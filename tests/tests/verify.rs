@@ -48,12 +48,22 @@ fn honest_run(dir: &std::path::Path) -> Ran {
 /// RUN over two attached workers, the liar and an honest one, checked at
 /// `rate`.
 fn with_a_liar(dir: &std::path::Path, rate: &str) -> Ran {
-    let iox = Iox::new(&format!("verify{}", rate.replace('.', "_")));
-    let run_id = format!("verify{}{}", rate.replace('.', ""), std::process::id());
     let out = dir.join(format!("attached-{rate}"));
     let mut args = RUN.to_vec();
-    args.extend(["--json", "--out", out.to_str().unwrap(), "--attach"]);
-    args.extend(["--min-workers", "2", "--run-id", &run_id, "--verify", rate]);
+    args.extend(["--json", "--out", out.to_str().unwrap()]);
+    let done = beside_a_liar(&args, rate);
+    ran(&out, &done)
+}
+
+/// The `lander` command `args`, over two attached workers, the liar and an
+/// honest one, checked at `rate`; once it succeeded.
+fn beside_a_liar(args: &[&str], rate: &str) -> std::process::Output {
+    let name = format!("{}{}", args[0], rate.replace('.', "_"));
+    let iox = Iox::new(&name);
+    let run_id = format!("{}{}", name.replace('_', ""), std::process::id());
+    let mut args = args.to_vec();
+    args.extend(["--attach", "--min-workers", "2", "--run-id", &run_id]);
+    args.extend(["--verify", rate]);
     let coordinator = iox
         .command("lander")
         .args(&args)
@@ -79,7 +89,50 @@ fn with_a_liar(dir: &std::path::Path, rate: &str) -> Ran {
     // Both workers end: the liar told to leave, the honest one at the end.
     liar.wait().unwrap();
     honest.wait().unwrap();
-    ran(&out, &done)
+    done
+}
+
+/// A small experiment of both GAs.
+const EXPERIMENT: &str = r#"
+name = "checked"
+seed = 5
+trials = 3
+methods = ["ga", "guided"]
+[ga]
+population = 40
+max_generations = 40
+max_restarts = 1
+"#;
+
+#[test]
+fn an_experiment_beside_a_liar_checked_at_1_has_the_results_of_one_in_process() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("checked.toml");
+    fs::write(&file, EXPERIMENT).unwrap();
+    let file = file.to_str().unwrap();
+    let (inproc, attached) = (dir.path().join("inproc"), dir.path().join("attached"));
+    let here = lander(&["experiment", file, "--out", inproc.to_str().unwrap()]);
+    assert!(here.status.success(), "{}", stderr(&here));
+    let args = ["experiment", file, "--out", attached.to_str().unwrap()];
+    let done = beside_a_liar(&args, "1");
+    assert!(
+        stderr(&done).contains(&format!("refusing worker {LIAR}")),
+        "{}",
+        stderr(&done)
+    );
+    let read = |d: &std::path::Path, name: &str| fs::read_to_string(d.join(name)).unwrap();
+    assert!(read(&inproc, "generations.jsonl") == read(&attached, "generations.jsonl"));
+    // trials.csv ends each row with the trial's wall time, which no two
+    // runs share.
+    let without_wall = |text: String| -> Vec<String> {
+        text.lines()
+            .map(|l| l.rsplit_once(',').map_or(l, |(row, _)| row).to_string())
+            .collect()
+    };
+    assert_eq!(
+        without_wall(read(&inproc, "trials.csv")),
+        without_wall(read(&attached, "trials.csv"))
+    );
 }
 
 #[test]
