@@ -268,3 +268,16 @@ pub fn worker_id_of(events: &[Value], pid: u32) -> Option<String> {
         .find(|e| e["event"] == "worker_joined" && e["pid"] == pid)
         .and_then(|e| e["worker"].as_str().map(str::to_string))
 }
+
+/// True once process `pid` has exited: gone, or a zombie nobody reaped
+/// (a worker that outlived its coordinator is reparented, and a
+/// container's init may never reap it).
+pub fn has_exited(pid: u32) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat")).map_or(true, |stat| {
+        stat.rsplit(')')
+            .next()
+            .unwrap_or("")
+            .trim_start()
+            .starts_with('Z')
+    })
+}

@@ -3,7 +3,7 @@
 //! hang, or come and go.
 
 use lander_tests::{
-    events, interrupt, json_lines, json_out, lines_in, signal, stderr, wait_until,
+    events, has_exited, interrupt, json_lines, json_out, lines_in, signal, stderr, wait_until,
     without_wall_time, worker_children, worker_id_of, Iox,
 };
 use serde_json::Value;
@@ -126,10 +126,7 @@ fn a_clean_run_leaves_no_processes_and_no_files() {
     assert_eq!(seen.len(), 2, "two workers were spawned");
     summary_of(child);
     for worker in seen {
-        assert!(
-            !Path::new(&format!("/proc/{worker}")).exists(),
-            "worker {worker} outlived the run"
-        );
+        assert!(has_exited(worker), "worker {worker} outlived the run");
     }
     assert_eq!(iox.shm_files(), Vec::<String>::new());
     assert_eq!(iox.root_files(), Vec::<std::path::PathBuf>::new());
@@ -144,10 +141,7 @@ fn ctrl_c_stops_the_run_cleanly_with_what_it_flew_kept() {
     let (child, workers) = under_way(&iox, dir.path(), &["--config", &cfg], 5);
     interrupt(child);
     for worker in workers {
-        assert!(
-            !Path::new(&format!("/proc/{worker}")).exists(),
-            "worker {worker} outlived the run"
-        );
+        assert!(has_exited(worker), "worker {worker} outlived the run");
     }
     assert_eq!(iox.shm_files(), Vec::<String>::new());
     assert_eq!(iox.root_files(), Vec::<std::path::PathBuf>::new());
@@ -390,17 +384,6 @@ fn a_worker_for_a_missing_run_waits_and_says_so() {
     );
 }
 
-/// True once process `pid` has exited (gone, or a zombie nobody reaped).
-fn exited(pid: &str) -> bool {
-    fs::read_to_string(format!("/proc/{pid}/stat")).map_or(true, |stat| {
-        stat.rsplit(')')
-            .next()
-            .unwrap_or("")
-            .trim_start()
-            .starts_with('Z')
-    })
-}
-
 #[test]
 fn a_spawned_worker_whose_coordinator_died_before_it_joined_stops() {
     let _one_at_a_time = serial();
@@ -422,11 +405,15 @@ fn a_spawned_worker_whose_coordinator_died_before_it_joined_stops() {
         .stderr(fs::File::create(&err).unwrap())
         .output()
         .unwrap();
-    let pid = String::from_utf8(out.stdout).unwrap().trim().to_string();
+    let pid: u32 = String::from_utf8(out.stdout)
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
     let said = || fs::read_to_string(&err).unwrap_or_default();
     assert!(said().contains("waiting for run orphaned"), "{}", said());
     assert!(
-        wait_until(10, || exited(&pid)),
+        wait_until(10, || has_exited(pid)),
         "the orphan still runs: {}",
         said()
     );
