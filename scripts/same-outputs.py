@@ -5,7 +5,9 @@
 
 Exits 1, naming each file that differs, unless every file is the same once
 its wall-time fields (any key, column or line naming "wall") are left out;
-plots and every other file must match byte for byte.
+plots and every other file must match byte for byte. `events.jsonl` is left
+out whole: it tells what happened when, under a random run id, and holds no
+result.
 """
 import json, sys, re, os, csv, io
 a, b = sys.argv[1], sys.argv[2]
@@ -33,6 +35,8 @@ def norm(path):
 bad = 0; n = 0
 for root, _, files in os.walk(a):
     for f in files:
+        if f == "events.jsonl":
+            continue
         pa = os.path.join(root, f); pb = os.path.join(b, os.path.relpath(pa, a)); n += 1
         if not os.path.exists(pb):
             print("missing", pb); bad += 1
