@@ -139,7 +139,9 @@ fn start(args: &RunArgs, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
         prepare(&out)?;
         watch.begin(&out, "run")?;
         let every = args.checkpoint_every(cfg.method);
-        return super::learning::learn(&cfg, &out, args.json, pool, every, stop);
+        return counted(watch, &cfg, || {
+            super::learning::learn(&cfg, &out, args.json, pool, every, stop)
+        });
     }
     let bar = progress_bar(cfg.ga.max_generations);
     let evaluator = args
@@ -149,7 +151,9 @@ fn start(args: &RunArgs, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
     watch.begin(&out, "run")?;
     let log = RunLog::create(&out, GENERATIONS)?;
     let run = TrialRun::new(&cfg)?;
-    evolve(args, &cfg, &out, run, log, evaluator, bar, watch)
+    counted(watch, &cfg, || {
+        evolve(args, &cfg, &out, run, log, evaluator, bar, watch)
+    })
 }
 
 /// `lander run --resume DIR`: the saved run, checked against the flags,
@@ -170,7 +174,9 @@ fn resume(args: &RunArgs, dir: &Path, watch: &Watch, stop: &Stop) -> anyhow::Res
             let pool = args.transport.pool(&watch.telemetry, stop)?;
             watch.begin(dir, "run --resume")?;
             let every = args.checkpoint_every(cfg.method);
-            return super::learning::resume(&cfg, dir, args.json, &state, pool, every, stop);
+            return counted(watch, &cfg, || {
+                super::learning::resume(&cfg, dir, args.json, &state, pool, every, stop)
+            });
         }
     };
     let index = state.index;
@@ -183,7 +189,9 @@ fn resume(args: &RunArgs, dir: &Path, watch: &Watch, stop: &Stop) -> anyhow::Res
     let log = RunLog::resume(dir, GENERATIONS, index)?;
     watch.begin(dir, "run --resume")?;
     tracing::info!("resuming {} after generation {index}", dir.display());
-    evolve(args, &cfg, dir, run, log, evaluator, bar, watch)
+    counted(watch, &cfg, || {
+        evolve(args, &cfg, dir, run, log, evaluator, bar, watch)
+    })
 }
 
 /// The first field where two configurations differ, thread counts aside
@@ -195,6 +203,25 @@ fn differs(saved: &RunConfig, now: &RunConfig) -> Option<String> {
         serde_json::to_value(c).unwrap_or_default()
     };
     first_difference(&plain(saved), &plain(now), "")
+}
+
+/// Runs `trial`, the run's one trial of any method, counted in the metrics
+/// as started and, when it succeeds, finished.
+fn counted(
+    watch: &Watch,
+    cfg: &RunConfig,
+    trial: impl FnOnce() -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let metrics = watch.telemetry.metrics();
+    let label = trial_label(None, cfg);
+    if let Some(m) = metrics {
+        m.trial_started(&label);
+    }
+    trial()?;
+    if let Some(m) = metrics {
+        m.trial_finished(&label);
+    }
+    Ok(())
 }
 
 /// Flies `run` to its end, logging every generation and saving a
@@ -213,9 +240,6 @@ fn evolve(
 ) -> anyhow::Result<()> {
     let metrics = watch.telemetry.metrics();
     let label = trial_label(None, cfg);
-    if let Some(m) = metrics {
-        m.trial_started(&label);
-    }
     let every = args.checkpoint_every(cfg.method);
     let save = |run: &TrialRun, log: &mut RunLog| -> anyhow::Result<()> {
         let Some(state) = run.state() else {
@@ -274,9 +298,6 @@ fn evolve(
     let wall_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     drop(evaluator);
-    if let Some(m) = metrics {
-        m.trial_finished(&label);
-    }
     let best_path = out.join("best.json");
     write_json(&best_path, &BestRecord::new(cfg, &result))?;
     // The run is over; nothing is left to resume.
