@@ -122,12 +122,14 @@ impl<T: Transport> Pool<T> {
                 );
             }
             self.drop_links(&mut progress.todo, |l| l.is_broken(), Cause::Refused);
+            // The checks of the answers just held, and the chunks of a
+            // worker just refused, go out now, not after a sleep (a check
+            // with no other worker to fly it is decided here, and may end
+            // the generation).
+            self.hand_out(chunks, &mut progress, check, &mut distrusted, &mut finished);
             if progress.is_finished() {
                 break;
             }
-            // The checks of the answers just held, and the chunks of a
-            // worker just refused, go out now, not after a sleep.
-            self.hand_out(chunks, &mut progress, check, &mut distrusted, &mut finished);
             if self.links.is_empty() && self.children.is_empty() && self.opts.spawn > 0 {
                 return Err(EvalError::NoWorkers {
                     respawns: self.opts.max_respawns,
