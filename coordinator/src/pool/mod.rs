@@ -22,6 +22,9 @@
 //!   respawning (with `spawn`), shutting down;
 //! - `schedule`: cutting a generation into chunks, handing them out,
 //!   taking them back, [`Pool::run_chunks`];
+//! - `progress`: where a generation's chunks stand while they run;
+//! - `verify`: `--verify`, answers held until another worker (or this
+//!   process) has flown their chunks again;
 //! - `backend`: the [`Evaluator`] and [`Trainer`] impls;
 //! - `timing`: [`ChunkTiming`], the stamps of both ends.
 //!
