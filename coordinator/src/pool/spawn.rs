@@ -14,12 +14,27 @@ pub struct Children {
     run_id: String,
     /// What the transport needs on the worker's command line.
     args: Vec<String>,
-    /// Each live worker and the CPU it is pinned to, if any.
-    procs: Vec<(Child, Option<usize>)>,
+    /// Each live worker.
+    procs: Vec<Spawned>,
     /// CPUs no live worker is pinned to, handed out next.
     free_cpus: Vec<usize>,
     next_id: u64,
     respawns_left: usize,
+}
+
+/// A worker started here: its process, the id it was given, and the CPU
+/// it is pinned to, if any.
+struct Spawned {
+    child: Child,
+    id: u64,
+    cpu: Option<usize>,
+}
+
+/// A worker started here that exited, reaped.
+pub struct Exited {
+    pub pid: u32,
+    /// The id it was given, which it announces when it joins.
+    pub id: u64,
 }
 
 impl Children {
@@ -51,7 +66,7 @@ impl Children {
 
     /// True if `pid` is a live worker started here.
     pub fn started(&self, pid: u32) -> bool {
-        self.procs.iter().any(|(child, _)| child.id() == pid)
+        self.procs.iter().any(|p| p.child.id() == pid)
     }
 
     /// Starts one more worker, on the next free CPU if any, and returns
@@ -82,9 +97,13 @@ impl Children {
                     reason: e.to_string(),
                 }
             })?;
-        self.next_id += 1;
         let pid = child.id();
-        self.procs.push((child, cpu));
+        self.procs.push(Spawned {
+            child,
+            id: self.next_id,
+            cpu,
+        });
+        self.next_id += 1;
         Ok(pid)
     }
 
@@ -98,14 +117,17 @@ impl Children {
         self.spawn().map(Some)
     }
 
-    /// Reaps the workers that exited and returns their pids.
-    pub fn exited(&mut self) -> Vec<u32> {
+    /// Reaps the workers that exited and returns them.
+    pub fn exited(&mut self) -> Vec<Exited> {
         let mut gone = Vec::new();
-        self.procs.retain_mut(|(c, cpu)| match c.try_wait() {
+        self.procs.retain_mut(|p| match p.child.try_wait() {
             Ok(None) => true,
             Ok(Some(_)) | Err(_) => {
-                gone.push(c.id());
-                self.free_cpus.extend(*cpu);
+                gone.push(Exited {
+                    pid: p.child.id(),
+                    id: p.id,
+                });
+                self.free_cpus.extend(p.cpu);
                 false
             }
         });
@@ -114,15 +136,15 @@ impl Children {
 
     /// Kills a hung worker; the next `exited` reaps it.
     pub fn kill(&mut self, pid: u32) {
-        if let Some((c, _)) = self.procs.iter_mut().find(|(c, _)| c.id() == pid) {
-            let _ = c.kill();
+        if let Some(p) = self.procs.iter_mut().find(|p| p.child.id() == pid) {
+            let _ = p.child.kill();
         }
     }
 
     /// Kills every worker, for a pool that cannot use them.
     pub fn kill_all(&mut self) {
-        for (c, _) in &mut self.procs {
-            let _ = c.kill();
+        for p in &mut self.procs {
+            let _ = p.child.kill();
         }
     }
 
@@ -132,9 +154,9 @@ impl Children {
     /// run can end before a slow worker announces itself), so nothing told
     /// it the run is over: it gets SIGTERM at once rather than the wait.
     pub fn stop_all(&mut self, told: &[u32]) -> usize {
-        for (c, _) in &self.procs {
-            if !told.contains(&c.id()) {
-                terminate(c.id());
+        for p in &self.procs {
+            if !told.contains(&p.child.id()) {
+                terminate(p.child.id());
             }
         }
         // Workers told to leave exit within a couple of milliseconds: look
@@ -148,9 +170,9 @@ impl Children {
             std::thread::sleep(Duration::from_millis(1));
         }
         let stuck = self.procs.len();
-        for (mut c, _) in self.procs.drain(..) {
-            let _ = c.kill();
-            let _ = c.wait();
+        for mut p in self.procs.drain(..) {
+            let _ = p.child.kill();
+            let _ = p.child.wait();
         }
         stuck
     }

@@ -156,10 +156,22 @@ impl<T: Transport> Pool<T> {
     /// Drops links whose process exited or whose node died, and replaces
     /// spawned workers that are gone. Their chunks go back in `todo`.
     pub(super) fn reap(&mut self, todo: &mut VecDeque<usize>) -> Result<(), EvalError> {
-        for pid in self.children.exited() {
+        for gone in self.children.exited() {
+            let pid = gone.pid;
             // Nothing to drop for a worker dropped already, which the pool
-            // killed, or one that died before it joined.
-            self.drop_links(todo, |l| l.pid() == pid, Cause::Exited);
+            // killed, or one that died before it joined; such a one is
+            // told by the id it was given.
+            let joined = self.drop_links(todo, |l| l.pid() == pid, Cause::Exited);
+            if !joined && !self.dropped.contains(&gone.id) {
+                self.telemetry.event(Event::WorkerDied {
+                    worker: WorkerRef {
+                        id: gone.id,
+                        host: lander_protocol::host::name(),
+                        pid,
+                    },
+                    why: Death::Exited,
+                });
+            }
             match self.children.respawn()? {
                 Some(pid) => self.telemetry.event(Event::WorkerRespawned { pid }),
                 None => tracing::warn!("worker process {pid} exited; no respawns left"),

@@ -5,6 +5,7 @@
 mod answers;
 mod checks;
 mod chunking;
+mod deaths;
 mod dispatch;
 mod fake;
 mod refusals;

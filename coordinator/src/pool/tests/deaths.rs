@@ -1,0 +1,61 @@
+//! A spawned worker that dies before it joins: told by the id the pool
+//! gave it, and replaced.
+
+use super::fake::{recorded, Nowhere};
+use crate::pool::{Pool, PoolOptions};
+use crate::stop::Stop;
+use std::os::unix::fs::PermissionsExt;
+use std::time::Duration;
+
+#[test]
+fn a_worker_that_dies_before_it_joins_is_told_by_its_given_id_and_replaced() {
+    let (dir, telemetry) = recorded();
+    let exe = dir.path().join("lander-worker");
+    std::fs::write(&exe, "#!/bin/sh\nexit 3\n").unwrap();
+    std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let opts = PoolOptions {
+        run_id: "t".into(),
+        spawn: 1,
+        worker_exe: exe,
+        chunks_per_worker: 1,
+        deadline: Duration::from_secs(1),
+        max_respawns: 1,
+        pin: false,
+        min_workers: 0,
+        spin: Duration::ZERO,
+        verify: 0.0,
+        stop: Stop::new(),
+    };
+    let mut pool = Pool::with_transport(Nowhere, opts, telemetry).unwrap();
+    // Nobody ever joins: each wait looks after the workers a while, until
+    // both processes are reaped.
+    let read = || lander_telemetry::events::read(dir.path()).unwrap_or_default();
+    for _ in 0..200 {
+        assert!(pool
+            .wait_for_workers(1, Duration::from_millis(100))
+            .is_err());
+        if read().len() >= 3 {
+            break;
+        }
+    }
+    drop(pool);
+    let events = read();
+    let kinds: Vec<(&str, &str)> = events
+        .iter()
+        .map(|e| {
+            let worker = e["worker"].as_str().unwrap_or("");
+            (e["event"].as_str().unwrap(), worker)
+        })
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            ("worker_died", "0000000000000001"),
+            ("worker_respawned", ""),
+            ("worker_died", "0000000000000002"),
+        ],
+        "{events:?}"
+    );
+    assert!(events[0]["pid"].as_u64().is_some_and(|p| p > 0));
+    assert_eq!(events[0]["why"], "exited");
+}
