@@ -2,6 +2,10 @@
 //! only parses arguments, installs the log, handles SIGINT and SIGTERM,
 //! and turns errors into a message and an exit code.
 
+// The flags' doc comments are clap's help texts, where `<name>` is a
+// placeholder for the user, not HTML.
+#![allow(rustdoc::invalid_html_tags)]
+
 mod cli;
 
 use clap::Parser;

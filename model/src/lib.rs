@@ -8,9 +8,9 @@
 //! - [`stream`]: the keyed random streams behind every draw.
 //! - [`sim`]: the physics and the hull impact test (SPEC §1), [`fly`].
 //! - [`score`]: the fitness of eq. 1 and the reinforcement function R of eq. 3.
-//! - [`guide`]: the guided evolve pass (SPEC §4).
-//! - [`evaluate`]: one genome under a [`Pass`].
-//! - [`reference`]: a deliberately plain simulation, the oracle that the
+//! - [`guide`](mod@guide): the guided evolve pass (SPEC §4).
+//! - [`evaluate`](mod@evaluate): one genome under a [`Pass`].
+//! - [`reference`](mod@reference): a deliberately plain simulation, the oracle that the
 //!   fast one must match bit for bit.
 //! - [`tiles`], [`qlearn`], [`learn`]: the hashed tile coder, Watkins's
 //!   Q(λ), and the lander as its task (SPEC §5).

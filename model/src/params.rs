@@ -384,7 +384,7 @@ impl std::str::FromStr for Method {
 }
 
 /// What a genome goes through when a GA method evaluates it: a job
-/// carries its pass, and [`crate::evaluate`] runs it.
+/// carries its pass, and [`crate::evaluate()`] runs it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Pass {

@@ -2,7 +2,7 @@
 //! backend, stored trial by trial so an interrupted run can resume, and
 //! turned into tables, plots and a report.
 //!
-//! - [`file`]: the experiment file and its validation;
+//! - [`file`](mod@file): the experiment file and its validation;
 //! - [`runner`]: the trials, stepped together on the backend;
 //! - [`store`]: the folder's finished trials, written atomically;
 //! - [`outputs`]: the CSV, JSON lines, summary, plots and report.

@@ -190,7 +190,7 @@ fn terminate(pid: u32) {
 
 /// The live (not zombie) `lander-worker` processes whose parent is
 /// `parent`, read from /proc: for tools and tests that disturb workers
-/// they did not spawn through [`Children`].
+/// they did not spawn through `Children`.
 pub fn worker_children(parent: u32) -> Vec<u32> {
     let parent = parent.to_string();
     let Ok(dir) = std::fs::read_dir("/proc") else {

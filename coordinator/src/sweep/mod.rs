@@ -3,7 +3,7 @@
 //! interrupted sweep can resume, and compared in one table, plots and a
 //! report.
 //!
-//! - [`file`]: the sweep file, its grids and listed settings, all checked
+//! - [`file`](mod@file): the sweep file, its grids and listed settings, all checked
 //!   before anything runs;
 //! - [`store`]: the sweep folder, an experiment folder per setting;
 //! - [`outputs`]: `sweep.csv`, `sweep.md`, the plots and `report.html`.
