@@ -1,9 +1,8 @@
 //! A spawned worker that dies before it joins: told by the id the pool
 //! gave it, and replaced.
 
-use super::fake::{recorded, Nowhere};
+use super::fake::{options, recorded, Nowhere};
 use crate::pool::{Pool, PoolOptions};
-use crate::stop::Stop;
 use std::os::unix::fs::PermissionsExt;
 use std::time::Duration;
 
@@ -14,17 +13,10 @@ fn a_worker_that_dies_before_it_joins_is_told_by_its_given_id_and_replaced() {
     std::fs::write(&exe, "#!/bin/sh\nexit 3\n").unwrap();
     std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
     let opts = PoolOptions {
-        run_id: "t".into(),
         spawn: 1,
         worker_exe: exe,
-        chunks_per_worker: 1,
-        deadline: Duration::from_secs(1),
         max_respawns: 1,
-        pin: false,
-        min_workers: 0,
-        spin: Duration::ZERO,
-        verify: 0.0,
-        stop: Stop::new(),
+        ..options()
     };
     let mut pool = Pool::with_transport(Nowhere, opts, telemetry).unwrap();
     // Nobody ever joins: each wait looks after the workers a while, until

@@ -132,8 +132,9 @@ impl Transport for Nowhere {
     fn close(&mut self) {}
 }
 
-pub fn pool(links: Vec<Recorder>, telemetry: lander_telemetry::Telemetry) -> Pool<Nowhere> {
-    let opts = PoolOptions {
+/// The options of a pool that spawns nothing, for the tests to change.
+pub fn options() -> PoolOptions {
+    PoolOptions {
         run_id: "t".into(),
         spawn: 0,
         worker_exe: PathBuf::new(),
@@ -142,11 +143,14 @@ pub fn pool(links: Vec<Recorder>, telemetry: lander_telemetry::Telemetry) -> Poo
         max_respawns: 0,
         pin: false,
         min_workers: 0,
-        spin: std::time::Duration::ZERO,
+        spin: Duration::ZERO,
         verify: 0.0,
         stop: Stop::new(),
-    };
-    let mut pool = Pool::with_transport(Nowhere, opts, telemetry).unwrap();
+    }
+}
+
+pub fn pool(links: Vec<Recorder>, telemetry: lander_telemetry::Telemetry) -> Pool<Nowhere> {
+    let mut pool = Pool::with_transport(Nowhere, options(), telemetry).unwrap();
     pool.links = links;
     pool
 }

@@ -2,7 +2,6 @@
 
 use crate::evaluator::EvalError;
 use crate::pool::{Arrival, Pool, PoolOptions, Transport};
-use crate::stop::Stop;
 use lander_protocol::wire::PROTOCOL_VERSION;
 use std::io::Write;
 use std::os::unix::fs::PermissionsExt;
@@ -66,17 +65,9 @@ fn a_spawned_worker_of_another_build_ends_the_wait_at_once() {
     drop(script);
     std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
     let opts = PoolOptions {
-        run_id: "t".into(),
         spawn: 1,
         worker_exe: exe.clone(),
-        chunks_per_worker: 1,
-        deadline: Duration::from_secs(1),
-        max_respawns: 0,
-        pin: false,
-        min_workers: 0,
-        spin: std::time::Duration::ZERO,
-        verify: 0.0,
-        stop: Stop::new(),
+        ..super::fake::options()
     };
     let mut pool = Pool::with_transport(OtherBuild { pid_file }, opts, Default::default()).unwrap();
     let started = Instant::now();
