@@ -10,6 +10,16 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
+/// The chunk, of `n`, that `i` as sent flies: `i` itself, or the chunk a
+/// check numbered `n + c` checks.
+pub(super) fn subject(i: usize, n: usize) -> usize {
+    if i >= n {
+        i - n
+    } else {
+        i
+    }
+}
+
 /// An answer held until a check of it is in.
 pub(super) struct Held<R> {
     pub value: R,
@@ -52,11 +62,7 @@ impl<R> Progress<R> {
 
     /// The chunk that `i`, as sent, flies, and whether `i` is a check of it.
     pub fn subject(&self, i: usize) -> (usize, bool) {
-        if i >= self.n {
-            (i - self.n, true)
-        } else {
-            (i, false)
-        }
+        (subject(i, self.n), i >= self.n)
     }
 
     /// What a check of chunk `c` travels as.

@@ -4,7 +4,7 @@
 //! (`Pool::dispatch`), taking back from a busy worker for an idle one
 //! (`Pool::rebalance`), and only then decoding.
 
-use super::progress::Progress;
+use super::progress::{subject, Progress};
 use super::verify::{Check, Outcome, Verdict};
 use super::{Answer, Pool, Transport, WorkerLink};
 use crate::evaluator::EvalError;
@@ -108,10 +108,7 @@ impl<T: Transport> Pool<T> {
                     Ok(value) if is_check => {
                         self.judge_check(&mut progress, check, c, value, worker)
                     }
-                    Ok(value) => {
-                        let first = !self.vetted.contains(&worker);
-                        self.judge(&mut progress, check, c, value, worker, first)
-                    }
+                    Ok(value) => self.judge(&mut progress, check, c, value, worker),
                 };
                 self.apply(
                     &mut progress,
@@ -339,8 +336,7 @@ impl<T: Transport> Pool<T> {
         chunk: usize,
         todo: &mut VecDeque<usize>,
     ) -> bool {
-        // A check of chunk `c` is sent as `chunks.len() + c` (`progress`).
-        let flown = &chunks[chunk % chunks.len()];
+        let flown = &chunks[subject(chunk, chunks.len())];
         let mut header = flown.header;
         header.job_id = self.next_job;
         self.next_job += 1;

@@ -102,7 +102,7 @@ impl<R> Verdict<R> {
 impl<T: Transport> Pool<T> {
     /// Judges `value`, worker `by`'s answer to chunk `c`: taken, or held
     /// for a check on another worker, or checked here where there is no
-    /// other.
+    /// other. Until one of a worker's answers is taken, all are due.
     pub(super) fn judge<R>(
         &self,
         progress: &mut Progress<R>,
@@ -110,8 +110,8 @@ impl<T: Transport> Pool<T> {
         c: usize,
         value: R,
         by: u64,
-        first: bool,
     ) -> Verdict<R> {
+        let first = !self.vetted.contains(&by);
         if !(check.due)(c, first) {
             return Verdict::take(value, by);
         }
