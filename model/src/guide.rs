@@ -17,6 +17,23 @@ pub fn guide_in_place(
     genes: &mut [Gene],
     rng: &mut impl Rng,
 ) -> (Flight, u64) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f") {
+        // SAFETY: the CPU has the feature the function is compiled for; it
+        // was just asked.
+        return unsafe { guide_avx512(env, params, genes, rng) };
+    }
+    guide_with(Flight::branch, env, params, genes, rng)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn guide_avx512(
+    env: &Env,
+    params: &GuideParams,
+    genes: &mut [Gene],
+    rng: &mut impl Rng,
+) -> (Flight, u64) {
     guide_with(Flight::branch, env, params, genes, rng)
 }
 
@@ -32,7 +49,7 @@ pub fn guide_in_place_one_by_one(
     guide_with(Flight::branch_one_by_one, env, params, genes, rng)
 }
 
-type Brancher = fn(&Flight, &Physics, u32) -> ([Flight; 4], u64);
+type Brancher = fn(&Flight, &Physics, u32, &mut [Flight; 4]) -> u64;
 
 #[inline(always)]
 fn guide_with(
@@ -45,9 +62,9 @@ fn guide_with(
     let p = Physics::new(env);
     let mut flight = Flight::start(env);
     let mut simulated = 0u64;
+    let mut options = [flight; 4];
     for gene in genes.iter_mut() {
-        let (options, flown) = branch(&flight, &p, u32::from(gene.duration));
-        simulated += flown;
+        simulated += branch(&flight, &p, u32::from(gene.duration), &mut options);
         let best = best_action(env, params, &options);
         let chosen = &options[usize::from(best.index())];
         let safe = chosen.touched_down() && is_safe(env, &chosen.state);

@@ -229,7 +229,14 @@ impl Flight {
     /// The impact test near the ground.
     #[inline(always)]
     fn hull_below_ground(&mut self, p: &Physics) -> bool {
-        let (y, rot) = (self.state.y, self.state.rot);
+        self.hull_below(p, self.state.y)
+    }
+
+    /// The impact test with the centre at height `y` and this flight's own
+    /// rotation.
+    #[inline(always)]
+    fn hull_below(&mut self, p: &Physics, y: f64) -> bool {
+        let rot = self.state.rot;
         if rot != self.hull_rot {
             // The margin dwarfs the rounding in the offsets; a NaN `hull_rot`
             // fails the test and forces the exact path.
@@ -237,8 +244,7 @@ impl Flight {
             if y + lowest >= p.ground_y {
                 return false;
             }
-            self.refresh_trig();
-            self.hull_low = lowest_offset(p.hull_scale, self.sin, self.cos);
+            self.hull_low = trig::lowest_offset(p.hull_scale, rot);
             self.hull_rot = rot;
         }
         y + self.hull_low < p.ground_y
@@ -409,44 +415,78 @@ mod branch;
 #[cfg(test)]
 mod tests;
 
-/// `sin_cos`, remembered. Each thread keeps a small direct-mapped table of
-/// the rotations it met, by their bits, so a rotation met before costs a
-/// lookup instead of libm's `sincos` (about 5% of a worker's time). The
-/// table holds only values `sin_cos` returned for exactly those bits, so
-/// the results are the same bit for bit.
+/// `sin_cos` and the hull's lowest point, remembered. Each thread keeps a
+/// small direct-mapped table of the rotations it met, by their bits, so a
+/// rotation met before costs a lookup instead of libm's `sincos` (about 5%
+/// of a worker's time) and the 30-point minimum (a fifth of the guided
+/// pass near the ground). The table holds only values computed for exactly
+/// those bits (and, for the lowest point, that hull scale), so the results
+/// are the same bit for bit.
 mod trig {
     use std::cell::RefCell;
 
     const SLOTS: usize = 256;
 
-    struct Memo {
-        bits: [u64; SLOTS],
-        values: [(f64, f64); SLOTS],
+    #[derive(Clone, Copy)]
+    struct Slot {
+        bits: u64,
+        sin: f64,
+        cos: f64,
+        /// The bits of the hull scale `low` was computed for, if it was.
+        scale: Option<u64>,
+        low: f64,
     }
 
+    // Every slot starts as NaN's own answer, so no lookup can find a value
+    // `sin_cos` would not give.
+    const EMPTY: Slot = Slot {
+        bits: 0x7ff8_0000_0000_0000,
+        sin: f64::NAN,
+        cos: f64::NAN,
+        scale: None,
+        low: f64::NAN,
+    };
+
     thread_local! {
-        // Every slot starts as NaN's own answer, so no lookup can find a
-        // value `sin_cos` would not give.
-        static MEMO: RefCell<Memo> = const {
-            RefCell::new(Memo {
-                bits: [0x7ff8_0000_0000_0000; SLOTS],
-                values: [(f64::NAN, f64::NAN); SLOTS],
-            })
-        };
+        static MEMO: RefCell<[Slot; SLOTS]> = const { RefCell::new([EMPTY; SLOTS]) };
+    }
+
+    /// The slot of `rot`, filled with its `sin_cos` if it held another
+    /// rotation.
+    #[inline(always)]
+    fn with_slot<R>(rot: f64, f: impl FnOnce(&mut Slot) -> R) -> R {
+        let bits = rot.to_bits();
+        // Fibonacci hashing: the top bits of the product mix every bit in.
+        let at = (bits.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 56) as usize;
+        MEMO.with(|memo| {
+            let slot = &mut memo.borrow_mut()[at];
+            if slot.bits != bits {
+                let (sin, cos) = rot.sin_cos();
+                *slot = Slot {
+                    bits,
+                    sin,
+                    cos,
+                    ..EMPTY
+                };
+            }
+            f(slot)
+        })
     }
 
     #[inline(always)]
     pub fn sin_cos(rot: f64) -> (f64, f64) {
-        let bits = rot.to_bits();
-        // Fibonacci hashing: the top bits of the product mix every bit in.
-        let slot = (bits.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 56) as usize;
-        MEMO.with(|memo| {
-            let mut memo = memo.borrow_mut();
-            if memo.bits[slot] != bits {
-                memo.bits[slot] = bits;
-                memo.values[slot] = rot.sin_cos();
+        with_slot(rot, |slot| (slot.sin, slot.cos))
+    }
+
+    /// [`super::lowest_offset`] at `rot`.
+    #[inline(always)]
+    pub fn lowest_offset(scale: f64, rot: f64) -> f64 {
+        with_slot(rot, |slot| {
+            if slot.scale != Some(scale.to_bits()) {
+                slot.low = super::lowest_offset(scale, slot.sin, slot.cos);
+                slot.scale = Some(scale.to_bits());
             }
-            memo.values[slot]
+            slot.low
         })
     }
 
@@ -461,6 +501,23 @@ mod trig {
                     let (s, c) = super::sin_cos(r);
                     let (ls, lc) = r.sin_cos();
                     assert_eq!((s.to_bits(), c.to_bits()), (ls.to_bits(), lc.to_bits()));
+                }
+            }
+        }
+
+        #[test]
+        fn remembered_lowest_points_are_computed_ones_bit_for_bit() {
+            let mut rot = std::f64::consts::PI;
+            for i in 0..10_000 {
+                rot += if i % 3 == 0 { -0.1 } else { 0.1 };
+                // Two scales in turn: a slot's lowest point is its scale's.
+                for scale in [10.0, 7.5, f64::NAN] {
+                    for r in [rot, -rot, f64::NAN, 0.0, -0.0] {
+                        let (sin, cos) = r.sin_cos();
+                        let want = crate::sim::lowest_offset(scale, sin, cos);
+                        let got = super::lowest_offset(scale, r);
+                        assert_eq!(got.to_bits(), want.to_bits(), "scale {scale}, rot {r}");
+                    }
                 }
             }
         }

@@ -24,38 +24,63 @@ const LEFT: usize = Action::RotateLeft as usize;
 const RIGHT: usize = Action::RotateRight as usize;
 const THRUST: usize = Action::Thrust as usize;
 
+/// The branches still flying, one bit per index in [`Action::ALL`]: a
+/// mask rather than an array, so that the loop keeps it in a register.
+type Alive = u8;
+
+const ALL_ALIVE: Alive = 0b1111;
+
+const fn bit(i: usize) -> Alive {
+    1 << i
+}
+
 /// Tests the hulls of the branches on the shared path, `k` ticks into the
-/// branch from `start` ticks; a branch down there stops.
+/// branch from `start` ticks; a branch down there stops. Returns the
+/// branches still flying.
 #[inline(never)]
 fn land_shared(
     p: &Physics,
     lanes: &mut [Flight; 4],
-    alive: &mut [bool; 4],
+    mut alive: Alive,
     flown: &mut [u32; 4],
     path: State,
     start: u32,
     k: u32,
-) {
+) -> Alive {
     for i in SHARED {
-        if alive[i] && lanes[i].lands_at(p, path, start + k) {
-            alive[i] = false;
+        if alive & bit(i) != 0 && lanes[i].lands_at(p, &path, start + k) {
+            alive &= !bit(i);
             flown[i] = k;
         }
     }
+    alive
+}
+
+/// A thrust tick from `s`: [`Flight::thrust`] with the push precomputed,
+/// then [`Flight::finish_tick`]'s motion.
+#[inline(always)]
+fn thrust_tick(p: &Physics, mut s: State, push_x: f64, push_y: f64) -> State {
+    s.vx += push_x;
+    s.vy += push_y;
+    motion(p, &mut s);
+    s
 }
 
 impl Flight {
-    /// The flights of the four actions from here, in [`Action::ALL`]'s
-    /// order, each flown up to `ticks` ticks exactly as [`Flight::run`]
-    /// flies it; and the ticks the four flew in all.
-    pub fn branch(&self, p: &Physics, ticks: u32) -> ([Flight; 4], u64) {
-        let mut lanes = [*self; 4];
+    /// Writes into `lanes` the flights of the four actions from here, in
+    /// [`Action::ALL`]'s order, each flown up to `ticks` ticks exactly as
+    /// [`Flight::run`] flies it; returns the ticks the four flew in all.
+    // The lanes are the caller's, not returned: returning them copied all
+    // four (352 bytes) through memcpy once more per gene.
+    #[inline(always)]
+    pub fn branch(&self, p: &Physics, ticks: u32, lanes: &mut [Flight; 4]) -> u64 {
+        *lanes = [*self; 4];
         if self.touched_down {
-            return (lanes, 0);
+            return 0;
         }
         let ticks = ticks.min(p.max_ticks.saturating_sub(self.ticks));
         if ticks == 0 {
-            return (lanes, 0);
+            return 0;
         }
         // The paths and rotations live in locals, not in `lanes`, so that
         // the chains of additions stay in registers; a lane is written
@@ -65,58 +90,87 @@ impl Flight {
         let mut pushed = self.state;
         let mut path = self.state;
         let (mut rot_left, mut rot_right) = (self.state.rot, self.state.rot);
-        let mut alive = [true; 4];
+        let mut alive = ALL_ALIVE;
         let mut flown = [ticks; 4];
-        for k in 1..=ticks {
-            if alive[THRUST] {
-                // Flight::thrust, then Flight::finish_tick's motion.
-                pushed.vx += push_x;
-                pushed.vy += push_y;
-                motion(p, &mut pushed);
-                if pushed.y < p.clear_y && lanes[THRUST].lands_at(p, pushed, self.ticks + k) {
-                    alive[THRUST] = false;
-                    flown[THRUST] = k;
-                }
-            }
-            if alive[LEFT] {
-                rot_left = turned_left(p, rot_left);
-            }
-            if alive[RIGHT] {
-                rot_right = turned_right(p, rot_right);
-            }
+        // Aloft: while both centres are above `clear_y` no hull can touch
+        // down, so every branch flies on and the loop makes no call. A
+        // call would cost more than itself: every value the loop holds
+        // would live in memory, and the chains of additions would wait on
+        // stores and loads.
+        let mut k = 1;
+        loop {
+            pushed = thrust_tick(p, pushed, push_x, push_y);
+            rot_left = turned_left(p, rot_left);
+            rot_right = turned_right(p, rot_right);
             motion(p, &mut path);
+            if pushed.y < p.clear_y || path.y < p.clear_y || k == ticks {
+                break;
+            }
+            k += 1;
+        }
+        // Near the ground: tick `k` is flown; test the hulls, then fly on,
+        // testing every tick.
+        loop {
+            if alive & bit(THRUST) != 0
+                && pushed.y < p.clear_y
+                && lanes[THRUST].lands_at(p, &pushed, self.ticks + k)
+            {
+                alive &= !bit(THRUST);
+                flown[THRUST] = k;
+            }
             if path.y < p.clear_y {
                 lanes[LEFT].state.rot = rot_left;
                 lanes[RIGHT].state.rot = rot_right;
-                land_shared(p, &mut lanes, &mut alive, &mut flown, path, self.ticks, k);
+                alive = land_shared(p, lanes, alive, &mut flown, path, self.ticks, k);
             }
-            if alive == [false; 4] {
+            if alive == 0 || k == ticks {
                 break;
             }
+            k += 1;
+            if alive & bit(THRUST) != 0 {
+                pushed = thrust_tick(p, pushed, push_x, push_y);
+            }
+            if alive & bit(LEFT) != 0 {
+                rot_left = turned_left(p, rot_left);
+            }
+            if alive & bit(RIGHT) != 0 {
+                rot_right = turned_right(p, rot_right);
+            }
+            motion(p, &mut path);
         }
         lanes[LEFT].state.rot = rot_left;
         lanes[RIGHT].state.rot = rot_right;
-        if alive[THRUST] {
+        if alive & bit(THRUST) != 0 {
             lanes[THRUST].move_to(pushed, self.ticks + ticks);
         }
         for i in SHARED {
-            if alive[i] {
+            if alive & bit(i) != 0 {
                 lanes[i].move_to(path, self.ticks + ticks);
             }
         }
-        (lanes, flown.iter().map(|&f| u64::from(f)).sum())
+        flown.iter().map(|&f| u64::from(f)).sum()
     }
 
-    /// Puts this branch at `path`'s position and velocity after `ticks`
-    /// ticks, keeping its own rotation, and says whether its hull is down
-    /// there.
+    /// Says whether this branch's hull is down with its centre at `path`
+    /// after `ticks` ticks, keeping its own rotation; if it is, the branch
+    /// stops there.
     // Out of line: its caller's loop then keeps only the paths in
-    // registers, not every lane's cached trigonometry and hull bound.
+    // registers, not every lane's cached trigonometry and hull bound. The
+    // test reads the height alone, passed in a register: loading the
+    // caller's freshly stored path whole would stall on store forwarding.
+    #[inline(always)]
+    fn lands_at(&mut self, p: &Physics, path: &State, ticks: u32) -> bool {
+        if !self.hull_below_at(p, path.y) {
+            return false;
+        }
+        self.move_to(*path, ticks);
+        self.touched_down = true;
+        true
+    }
+
     #[inline(never)]
-    fn lands_at(&mut self, p: &Physics, path: State, ticks: u32) -> bool {
-        self.move_to(path, ticks);
-        self.touched_down = self.hull_below_ground(p);
-        self.touched_down
+    fn hull_below_at(&mut self, p: &Physics, y: f64) -> bool {
+        self.hull_below(p, y)
     }
 
     /// `path`'s position and velocity, with this branch's own rotation.
@@ -133,13 +187,13 @@ impl Flight {
     /// [`Flight::branch`] as four [`Flight::run`]s one after another: the
     /// oracle that `branch` must equal in every bit, and the baseline of
     /// the benches.
-    pub fn branch_one_by_one(&self, p: &Physics, ticks: u32) -> ([Flight; 4], u64) {
-        let mut lanes = [*self; 4];
+    pub fn branch_one_by_one(&self, p: &Physics, ticks: u32, lanes: &mut [Flight; 4]) -> u64 {
+        *lanes = [*self; 4];
         let mut flown = 0;
         for (lane, action) in lanes.iter_mut().zip(Action::ALL) {
             flown += u64::from(lane.run(p, action, ticks));
         }
-        (lanes, flown)
+        flown
     }
 }
 
@@ -149,6 +203,20 @@ mod tests {
     use crate::test_env;
     use proptest::prelude::*;
     use std::f64::consts::{PI, TAU};
+
+    /// [`Flight::branch`]'s lanes and ticks flown, returned.
+    fn branched(from: &Flight, p: &Physics, ticks: u32) -> ([Flight; 4], u64) {
+        let mut lanes = [*from; 4];
+        let flown = from.branch(p, ticks, &mut lanes);
+        (lanes, flown)
+    }
+
+    /// [`Flight::branch_one_by_one`]'s lanes and ticks flown, returned.
+    fn one_by_one(from: &Flight, p: &Physics, ticks: u32) -> ([Flight; 4], u64) {
+        let mut lanes = [*from; 4];
+        let flown = from.branch_one_by_one(p, ticks, &mut lanes);
+        (lanes, flown)
+    }
 
     /// Every lane of `branch` equals the same lane flown alone, in every
     /// bit, and so do the ticks flown.
@@ -160,8 +228,8 @@ mod tests {
         let e = test_env(200.0, 100.0);
         let p = Physics::new(&e);
         let from = Flight::at(state, ticks_so_far);
-        let (fast, flown) = from.branch(&p, ticks);
-        let (slow, flown_alone) = from.branch_one_by_one(&p, ticks);
+        let (fast, flown) = branched(&from, &p, ticks);
+        let (slow, flown_alone) = one_by_one(&from, &p, ticks);
         for (a, (f, s)) in Action::ALL.into_iter().zip(fast.iter().zip(&slow)) {
             prop_assert_eq!(f.state, s.state, "{:?}", a);
             prop_assert_eq!(f.ticks, s.ticks, "{:?}", a);
@@ -218,10 +286,10 @@ mod tests {
         ) {
             let e = test_env(200.0, 100.0);
             let p = Physics::new(&e);
-            let (lanes, _) = Flight::at(State { x, y, vx, vy, rot }, 0).branch(&p, first);
+            let (lanes, _) = branched(&Flight::at(State { x, y, vx, vy, rot }, 0), &p, first);
             let from = lanes[lane];
-            let (fast, flown) = from.branch(&p, then);
-            let (slow, flown_alone) = from.branch_one_by_one(&p, then);
+            let (fast, flown) = branched(&from, &p, then);
+            let (slow, flown_alone) = one_by_one(&from, &p, then);
             for (f, s) in fast.iter().zip(&slow) {
                 prop_assert_eq!((f.state, f.ticks, f.touched_down()), (s.state, s.ticks, s.touched_down()));
             }
@@ -236,7 +304,7 @@ mod tests {
         let mut down = Flight::start(&e);
         down.drift_to_end(&p);
         assert!(down.touched_down());
-        let (lanes, flown) = down.branch(&p, 30);
+        let (lanes, flown) = branched(&down, &p, 30);
         assert_eq!(flown, 0);
         assert!(lanes
             .iter()
