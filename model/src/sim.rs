@@ -244,7 +244,7 @@ impl Flight {
             if y + lowest >= p.ground_y {
                 return false;
             }
-            self.hull_low = trig::lowest_offset(p.hull_scale, rot);
+            self.hull_low = lowest_at(p.hull_scale, rot);
             self.hull_rot = rot;
         }
         y + self.hull_low < p.ground_y
@@ -350,6 +350,14 @@ impl Lander {
     pub fn outcome(&self, env: &Env, n: u32) -> Outcome {
         self.flight.outcome(env, n)
     }
+}
+
+/// The lowest hull point's y offset from the centre at `rot`, remembered.
+// Out of line: inlined, the lookup's thread-local access and its rare call
+// to libm would crowd the flight loop's registers.
+#[inline(never)]
+fn lowest_at(scale: f64, rot: f64) -> f64 {
+    trig::lowest_offset(scale, rot)
 }
 
 /// The lowest hull point's y offset from the centre.
