@@ -2,7 +2,7 @@
 //! start state and, gene by gene, switch to the action whose resulting
 //! state scores best under R.
 
-use crate::score::{is_safe, reinforcement};
+use crate::score::{is_safe, reinforcement_pair};
 use crate::sim::{Flight, Physics};
 use crate::{Action, Env, Gene, GuideParams};
 use rand::Rng;
@@ -88,10 +88,11 @@ pub fn guide(env: &Env, params: &GuideParams, genes: &[Gene], rng: &mut impl Rng
 
 /// The action whose resulting state maximises R; the lowest index on a tie.
 fn best_action(env: &Env, params: &GuideParams, options: &[Flight; 4]) -> Action {
+    let [r0, r1] = reinforcement_pair(env, params, &options[0].state, &options[1].state);
+    let [r2, r3] = reinforcement_pair(env, params, &options[2].state, &options[3].state);
     let mut best = Action::RotateLeft;
     let mut best_r = f64::NEG_INFINITY;
-    for (action, option) in Action::ALL.into_iter().zip(options) {
-        let r = reinforcement(env, params, &option.state);
+    for (action, r) in Action::ALL.into_iter().zip([r0, r1, r2, r3]) {
         if r > best_r {
             best = action;
             best_r = r;
@@ -104,6 +105,7 @@ fn best_action(env: &Env, params: &GuideParams, options: &[Flight; 4]) -> Action
 mod tests {
     use super::*;
     use crate::evaluate::evaluate;
+    use crate::score::reinforcement;
     use crate::sim::fly;
     use crate::{Pass, StreamKey};
     use proptest::prelude::*;
