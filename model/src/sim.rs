@@ -265,6 +265,8 @@ impl Flight {
 fn turned_left(p: &Physics, rot: f64) -> f64 {
     let rot = rot - p.rotation_step;
     if rot < -PI {
+        // A predicted branch, not a select: see `motion`.
+        std::hint::cold_path();
         rot + TAU
     } else {
         rot
@@ -276,6 +278,7 @@ fn turned_left(p: &Physics, rot: f64) -> f64 {
 fn turned_right(p: &Physics, rot: f64) -> f64 {
     let rot = rot + p.rotation_step;
     if rot > TAU {
+        std::hint::cold_path();
         rot - TAU
     } else {
         rot
@@ -289,10 +292,15 @@ fn motion(p: &Physics, s: &mut State) {
     s.vy += -p.gravity;
     s.x += s.vx;
     s.y += s.vy;
+    // Branches the CPU predicts, not selects: the wrap is rare, and as a
+    // select its compares would lengthen the chain of additions to `x`
+    // that carries from tick to tick.
     if s.x > p.width {
+        std::hint::cold_path();
         s.x = 0.0;
     }
     if s.x < 0.0 {
+        std::hint::cold_path();
         s.x = p.width;
     }
 }
