@@ -14,7 +14,8 @@
 //! - Because IEEE addition is monotonic, `y + min(offsets)` equals
 //!   `min(y + offset)` exactly.
 //! - A run meets few distinct rotations (each a sum of rotation steps), so
-//!   `sin_cos` is remembered per thread, by the rotation's bits (`trig`).
+//!   `sin_cos` and the hull's lowest point are remembered per thread, by
+//!   the rotation's bits (`trig`).
 
 use crate::score;
 use crate::{Action, Env, Gene, Outcome, State};
