@@ -245,7 +245,7 @@ impl Flight {
             if y + lowest >= p.ground_y {
                 return false;
             }
-            self.hull_low = lowest_at(p.hull_scale, rot);
+            self.hull_low = trig::lowest_at(p.hull_scale, rot);
             self.hull_rot = rot;
         }
         y + self.hull_low < p.ground_y
@@ -359,14 +359,6 @@ impl Lander {
     pub fn outcome(&self, env: &Env, n: u32) -> Outcome {
         self.flight.outcome(env, n)
     }
-}
-
-/// The lowest hull point's y offset from the centre at `rot`, remembered.
-// Out of line: inlined, the lookup's thread-local access and its rare call
-// to libm would crowd the flight loop's registers.
-#[inline(never)]
-fn lowest_at(scale: f64, rot: f64) -> f64 {
-    trig::lowest_offset(scale, rot)
 }
 
 /// The lowest hull point's y offset from the centre.
@@ -495,9 +487,11 @@ mod trig {
         with_slot(rot, |slot| (slot.sin, slot.cos))
     }
 
-    /// [`super::lowest_offset`] at `rot`.
-    #[inline(always)]
-    pub fn lowest_offset(scale: f64, rot: f64) -> f64 {
+    /// [`super::lowest_offset`] at `rot`, remembered.
+    // Out of line: inlined, the lookup's thread-local access and its rare
+    // call to libm would crowd the flight loop's registers.
+    #[inline(never)]
+    pub fn lowest_at(scale: f64, rot: f64) -> f64 {
         with_slot(rot, |slot| {
             if slot.scale != Some(scale.to_bits()) {
                 slot.low = super::lowest_offset(scale, slot.sin, slot.cos);
@@ -532,7 +526,7 @@ mod trig {
                     for r in [rot, -rot, f64::NAN, 0.0, -0.0] {
                         let (sin, cos) = r.sin_cos();
                         let want = crate::sim::lowest_offset(scale, sin, cos);
-                        let got = super::lowest_offset(scale, r);
+                        let got = super::lowest_at(scale, r);
                         assert_eq!(got.to_bits(), want.to_bits(), "scale {scale}, rot {r}");
                     }
                 }

@@ -154,10 +154,6 @@ impl Flight {
     /// Says whether this branch's hull is down with its centre at `path`
     /// after `ticks` ticks, keeping its own rotation; if it is, the branch
     /// stops there.
-    // Out of line: its caller's loop then keeps only the paths in
-    // registers, not every lane's cached trigonometry and hull bound. The
-    // test reads the height alone, passed in a register: loading the
-    // caller's freshly stored path whole would stall on store forwarding.
     #[inline(always)]
     fn lands_at(&mut self, p: &Physics, path: &State, ticks: u32) -> bool {
         if !self.hull_below_at(p, path.y) {
@@ -168,6 +164,11 @@ impl Flight {
         true
     }
 
+    /// The hull test at height `y`, this branch's own rotation.
+    // Out of line: its caller's loop then keeps only the paths in
+    // registers, not every lane's cached trigonometry and hull bound. It
+    // takes the height alone, in a register: loading the caller's freshly
+    // stored path whole would stall on store forwarding.
     #[inline(never)]
     fn hull_below_at(&mut self, p: &Physics, y: f64) -> bool {
         self.hull_below(p, y)
