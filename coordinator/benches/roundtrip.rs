@@ -61,14 +61,14 @@ fn roundtrip(c: &mut Criterion) {
                     || genomes.clone(),
                     |g| {
                         evaluator
-                            .evaluate(Batch {
-                                env: cfg.env(0),
-                                pass: Pass::Fly,
-                                guide: cfg.guided,
+                            .evaluate(Batch::new(
+                                cfg.env(0),
+                                Pass::Fly,
+                                cfg.guided,
                                 key,
-                                max_duration: cfg.ga.max_duration,
-                                genomes: g,
-                            })
+                                cfg.ga.max_duration,
+                                g,
+                            ))
                             .expect("evaluation succeeds")
                     },
                     BatchSize::SmallInput,

@@ -1,7 +1,7 @@
 //! Who flies a generation. [`Evaluator`] is the seam between the trial loop
 //! and the transports; [`InProcess`] is the embedded default, a rayon pool.
 
-use crate::ga::Genome;
+use crate::ga::{Genome, Offspring};
 use crate::stop::Stop;
 use lander_model::learn::run_training;
 use lander_model::TrainJob;
@@ -9,11 +9,19 @@ use lander_model::TrainResult;
 use lander_model::{evaluate, Evaluation};
 use lander_model::{Env, GuideParams, Pass, StreamKey};
 use lander_protocol::iox::IpcError;
+use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::sync::Arc;
 
+mod pipeline;
+
 /// One generation's worth of work. Genome `i` uses the guided-pass stream
 /// `(key, i)`, so the results do not depend on who flies which genome.
+///
+/// A trial's generation may still be to breed: [`genomes`](Batch::genomes)
+/// breeds it first, and [`evaluate_here`](Batch::evaluate_here) on more
+/// than one thread flies each genome as soon as it is bred, while the next
+/// are bred (`pipeline`).
 pub struct Batch<'a> {
     pub env: Env,
     pub pass: Pass,
@@ -21,20 +29,86 @@ pub struct Batch<'a> {
     pub key: StreamKey,
     /// The largest duration a gene may have.
     pub max_duration: u8,
-    /// Rewritten in place by the guided pass.
-    pub genomes: &'a mut [Genome],
+    /// Rewritten in place by the guided pass; empty while `offspring` is
+    /// still to breed it.
+    genomes: &'a mut Vec<Genome>,
+    offspring: Option<Offspring<'a, ChaCha8Rng>>,
 }
 
-impl Batch<'_> {
+impl<'a> Batch<'a> {
+    /// A batch of `genomes` as they are.
+    pub fn new(
+        env: Env,
+        pass: Pass,
+        guide: GuideParams,
+        key: StreamKey,
+        max_duration: u8,
+        genomes: &'a mut Vec<Genome>,
+    ) -> Batch<'a> {
+        Batch {
+            env,
+            pass,
+            guide,
+            key,
+            max_duration,
+            genomes,
+            offspring: None,
+        }
+    }
+
+    /// The same batch, its genomes bred by `offspring` (where `Some`) into
+    /// the empty `genomes`.
+    pub fn breeding(mut self, offspring: Option<Offspring<'a, ChaCha8Rng>>) -> Batch<'a> {
+        debug_assert!(offspring.is_none() || self.genomes.is_empty());
+        self.offspring = offspring;
+        self
+    }
+
+    /// How many genomes the batch flies, bred or not.
+    pub fn len(&self) -> usize {
+        match &self.offspring {
+            Some(o) => o.population(),
+            None => self.genomes.len(),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The genomes, bred first if they are still to be bred.
+    pub fn genomes(&mut self) -> &mut [Genome] {
+        if let Some(offspring) = self.offspring.take() {
+            self.genomes.extend(offspring);
+        }
+        self.genomes
+    }
+
     /// Evaluates every genome here, on the current rayon pool, rewriting
     /// the genomes as the guided pass leaves them.
-    pub fn evaluate_here(self) -> Vec<Evaluation> {
+    pub fn evaluate_here(mut self) -> Vec<Evaluation> {
         let (env, pass, guide, key) = (self.env, self.pass, self.guide, self.key);
-        self.genomes
-            .par_iter_mut()
-            .enumerate()
-            .map(|(i, g)| evaluate(&env, pass, &guide, key, i as u64, g))
-            .collect()
+        let fly = move |i: usize, g: &mut Genome| evaluate(&env, pass, &guide, key, i as u64, g);
+        match self.offspring.take() {
+            Some(offspring) if rayon::current_num_threads() > 1 => {
+                let population = offspring.population();
+                let flown = pipeline::fly_as_bred(offspring, population, fly);
+                let mut evaluations = Vec::with_capacity(flown.len());
+                for (genome, evaluation) in flown {
+                    self.genomes.push(genome);
+                    evaluations.push(evaluation);
+                }
+                evaluations
+            }
+            offspring => {
+                self.offspring = offspring;
+                self.genomes()
+                    .par_iter_mut()
+                    .enumerate()
+                    .map(|(i, g)| fly(i, g))
+                    .collect()
+            }
+        }
     }
 }
 

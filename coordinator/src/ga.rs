@@ -192,24 +192,72 @@ pub fn next_generation(
     fitness: &[f64],
     rng: &mut impl Rng,
 ) -> Vec<Genome> {
-    let mut next: Vec<Genome> = ranking(fitness)
-        .into_iter()
-        .take(p.elites)
-        .map(|i| population[i].clone())
-        .collect();
-    let wheel = Wheel::new(fitness);
-    while next.len() < p.population {
-        let mum = &population[wheel.spin(rng)];
-        let dad = &population[wheel.spin(rng)];
-        let (mut a, mut b) = crossover(p, mum, dad, rng);
-        mutate(p, &mut a, rng);
-        mutate(p, &mut b, rng);
-        next.push(a);
-        if next.len() < p.population {
-            next.push(b);
+    Offspring::new(p, population, fitness, rng).collect()
+}
+
+/// The next generation bred one genome at a time, in order: the elites
+/// unchanged, then the children of roulette-picked pairs. Each genome is
+/// ready as soon as it is yielded, so that it can fly while the rest are
+/// bred; the draws are those of [`next_generation`], in its order.
+pub struct Offspring<'a, R> {
+    p: &'a GaParams,
+    parents: &'a [Genome],
+    elites: std::vec::IntoIter<usize>,
+    wheel: Wheel,
+    rng: R,
+    /// The second child of the last pair, still to be yielded.
+    spare: Option<Genome>,
+    /// Children still to be yielded after the elites.
+    left: usize,
+}
+
+impl<'a, R: Rng> Offspring<'a, R> {
+    /// The generation after `parents`, scored `fitness`, drawing from `rng`.
+    pub fn new(p: &'a GaParams, parents: &'a [Genome], fitness: &[f64], rng: R) -> Self {
+        let elites: Vec<usize> = ranking(fitness).into_iter().take(p.elites).collect();
+        Offspring {
+            p,
+            parents,
+            left: p.population - elites.len(),
+            elites: elites.into_iter(),
+            wheel: Wheel::new(fitness),
+            rng,
+            spare: None,
         }
     }
-    next
+
+    /// How many genomes the generation holds.
+    pub fn population(&self) -> usize {
+        self.p.population
+    }
+}
+
+impl<R: Rng> Iterator for Offspring<'_, R> {
+    type Item = Genome;
+
+    fn next(&mut self) -> Option<Genome> {
+        if let Some(i) = self.elites.next() {
+            return Some(self.parents[i].clone());
+        }
+        if self.left == 0 {
+            return None;
+        }
+        self.left -= 1;
+        if let Some(b) = self.spare.take() {
+            return Some(b);
+        }
+        let mum = &self.parents[self.wheel.spin(&mut self.rng)];
+        let dad = &self.parents[self.wheel.spin(&mut self.rng)];
+        let (mut a, mut b) = crossover(self.p, mum, dad, &mut self.rng);
+        mutate(self.p, &mut a, &mut self.rng);
+        // An odd last pair's second child is bred, and its draws made,
+        // though it has no place.
+        mutate(self.p, &mut b, &mut self.rng);
+        if self.left > 0 {
+            self.spare = Some(b);
+        }
+        Some(a)
+    }
 }
 
 #[cfg(test)]

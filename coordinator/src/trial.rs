@@ -4,10 +4,11 @@
 
 use crate::config::RunConfig;
 use crate::evaluator::{Batch, EvalError, Evaluator};
-use crate::ga::{next_generation, random_population, Genome};
+use crate::ga::{random_population, GaParams, Genome, Offspring};
 use lander_model::stream::streams;
 use lander_model::{Env, Pass, StreamKey};
 use lander_model::{Evaluation, Outcome};
+use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 /// One generation's record, a line of `generations.jsonl`.
@@ -120,7 +121,14 @@ pub struct TrialRun {
     generation: u64,
     /// Generations flown so far, across restarts.
     index: u64,
+    /// The generation to fly; empty while it is still to be bred from
+    /// `parents`, which lets an evaluator fly each genome as soon as it is
+    /// bred (see [`Batch`]).
     population: Vec<Genome>,
+    /// The generation flown last, as the guided pass left it, and its
+    /// fitness: what an empty `population` is bred from.
+    parents: Vec<Genome>,
+    fitness: Vec<f64>,
     /// The best individual of the current attempt.
     best: Option<Best>,
     result: Option<TrialResult>,
@@ -140,6 +148,8 @@ impl TrialRun {
             generation: 1,
             index: 0,
             population: Vec::new(),
+            parents: Vec::new(),
+            fitness: Vec::new(),
             best: None,
             result: None,
         };
@@ -160,16 +170,30 @@ impl TrialRun {
         self.population = random_population(&self.cfg.ga, &mut rng);
     }
 
-    /// The generation to fly next.
+    /// The generation to fly next, with its breeding where it is still to
+    /// be bred.
     pub fn batch(&mut self) -> Batch<'_> {
-        Batch {
-            env: self.env,
-            pass: self.pass,
-            guide: self.cfg.guided,
-            key: self.key(self.generation),
-            max_duration: self.cfg.ga.max_duration,
-            genomes: &mut self.population,
-        }
+        let key = self.key(self.generation);
+        let offspring = self
+            .population
+            .is_empty()
+            .then(|| offspring(&self.cfg.ga, &self.parents, &self.fitness, key));
+        Batch::new(
+            self.env,
+            self.pass,
+            self.cfg.guided,
+            key,
+            self.cfg.ga.max_duration,
+            &mut self.population,
+        )
+        .breeding(offspring)
+    }
+
+    /// Breeds the next generation now, if it is still to be bred, rather
+    /// than while it flies: for a caller that breeds many trials' next
+    /// generations in parallel.
+    pub fn breed(&mut self) {
+        self.batch().genomes();
     }
 
     /// Takes the evaluations of [`TrialRun::batch`], one per genome in
@@ -194,9 +218,12 @@ impl TrialRun {
         if landed.is_some() || last {
             self.end_attempt();
         } else {
-            let fitness: Vec<f64> = evaluations.iter().map(|e| e.outcome.fitness).collect();
-            let mut rng = self.key(self.generation + 1).rng(streams::OPERATORS);
-            self.population = next_generation(&self.cfg.ga, &self.population, &fitness, &mut rng);
+            // The next generation is bred by `batch`, as it flies.
+            self.fitness.clear();
+            self.fitness
+                .extend(evaluations.iter().map(|e| e.outcome.fitness));
+            std::mem::swap(&mut self.parents, &mut self.population);
+            self.population.clear();
             self.generation += 1;
         }
         generation
@@ -231,9 +258,18 @@ impl TrialRun {
             restart: self.restart,
             generation: self.generation,
             index: self.index,
-            population: self.population.clone(),
+            population: self.bred(),
             best: self.best.clone(),
         })
+    }
+
+    /// The generation to fly next, bred here if it is still to be bred.
+    fn bred(&self) -> Vec<Genome> {
+        if !self.population.is_empty() {
+            return self.population.clone();
+        }
+        let key = self.key(self.generation);
+        offspring(&self.cfg.ga, &self.parents, &self.fitness, key).collect()
     }
 
     /// The trial `cfg` saved as `state`, to go on from there. A state that
@@ -287,6 +323,16 @@ impl TrialRun {
     pub fn config(&self) -> &RunConfig {
         &self.cfg
     }
+}
+
+/// The generation `key` breeds from `parents`, scored `fitness`.
+fn offspring<'a>(
+    ga: &'a GaParams,
+    parents: &'a [Genome],
+    fitness: &[f64],
+    key: StreamKey,
+) -> Offspring<'a, ChaCha8Rng> {
+    Offspring::new(ga, parents, fitness, key.rng(streams::OPERATORS))
 }
 
 /// The first index of the highest fitness.

@@ -28,14 +28,14 @@ fn agree(pool: &mut IpcPool, cfg: &RunConfig, generation: u64) {
     for evaluator in [pool as &mut dyn Evaluator, &mut reference] {
         let mut guided = genomes.clone();
         let evaluations = evaluator
-            .evaluate(Batch {
-                env: cfg.env(0),
-                pass: Pass::Guide,
-                guide: cfg.guided,
+            .evaluate(Batch::new(
+                cfg.env(0),
+                Pass::Guide,
+                cfg.guided,
                 key,
-                max_duration: cfg.ga.max_duration,
-                genomes: &mut guided,
-            })
+                cfg.ga.max_duration,
+                &mut guided,
+            ))
             .unwrap();
         results.push((evaluations, guided));
     }

@@ -88,7 +88,7 @@ impl Evaluator for Fake {
         Ok(batches
             .iter()
             .map(|b| {
-                let mut answers: Vec<Evaluation> = (0..b.genomes.len())
+                let mut answers: Vec<Evaluation> = (0..b.len())
                     .map(|i| {
                         let fitness =
                             (b.key.trial * 1000 + b.key.generation * 100) as f64 + i as f64 + off;

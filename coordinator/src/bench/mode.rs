@@ -179,13 +179,16 @@ impl Mode {
         let batches = work.steps[g]
             .iter()
             .zip(&mut genomes)
-            .map(|(p, genomes)| Batch {
-                env: p.env,
-                pass: work.pass,
-                guide: work.cfg.guided,
-                key: p.key,
-                max_duration: work.cfg.ga.max_duration,
-                genomes,
+            .map(|(p, genomes)| {
+                let ga = &work.cfg.ga;
+                Batch::new(
+                    p.env,
+                    work.pass,
+                    work.cfg.guided,
+                    p.key,
+                    ga.max_duration,
+                    genomes,
+                )
             })
             .collect();
         let (cpu, process_cpu) = (thread_cpu_time(), process_cpu_time());

@@ -125,11 +125,11 @@ impl Flown {
                 .ok_or(TrialError::TrialNumber(self.cfg.trial))?;
             self.run = TrialRun::new(&self.cfg)?;
         }
-        let batch = self.run.batch();
+        let mut batch = self.run.batch();
         let kept = Population {
             env: batch.env,
             key: batch.key,
-            genomes: batch.genomes.to_vec(),
+            genomes: batch.genomes().to_vec(),
         };
         let evaluations = batch.evaluate_here();
         self.run.accept(&evaluations);

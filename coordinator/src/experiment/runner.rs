@@ -160,7 +160,11 @@ fn breed<K: Send>(running: &mut [Running<K>], evaluations: &[Vec<Evaluation>]) -
     running
         .par_iter_mut()
         .zip(evaluations)
-        .map(|(r, evaluations)| r.run.accept(evaluations))
+        .map(|(r, evaluations)| {
+            let generation = r.run.accept(evaluations);
+            r.run.breed();
+            generation
+        })
         .collect()
 }
 

@@ -72,12 +72,15 @@ impl<T: Transport> Evaluator for Pool<T> {
         let mut chunks = Vec::new();
         // For each chunk: its batch, the genomes it covers, their length.
         let mut spans = Vec::new();
-        for (b, batch) in batches.iter().enumerate() {
-            let length = batch.genomes.first().map_or(0, Vec::len);
-            if batch.genomes.iter().any(|g| g.len() != length) {
+        for (b, batch) in batches.iter_mut().enumerate() {
+            // A generation still to breed is bred here, before its chunks
+            // go out.
+            let genomes = batch.genomes();
+            let length = genomes.first().map_or(0, Vec::len);
+            if genomes.iter().any(|g| g.len() != length) {
                 return Err(EvalError::Ragged);
             }
-            for range in chunk_ranges(batch.genomes.len(), per_batch, workers) {
+            for range in chunk_ranges(genomes.len(), per_batch, workers) {
                 chunks.push(chunk_of(batch, range.clone(), length));
                 spans.push((b, range, length, batch.pass));
             }
@@ -100,12 +103,12 @@ impl<T: Transport> Evaluator for Pool<T> {
             &check,
             |i, result| {
                 let (b, range, _, _) = &spans[i];
-                write_back(&mut batches[*b].genomes[range.clone()], &result.actions);
+                write_back(&mut batches[*b].genomes()[range.clone()], &result.actions);
             },
         )?;
         let mut evaluations: Vec<Vec<Evaluation>> = batches
             .iter()
-            .map(|b| Vec::with_capacity(b.genomes.len()))
+            .map(|b| Vec::with_capacity(b.len()))
             .collect();
         for ((b, _, _, _), result) in spans.iter().zip(results) {
             evaluations[*b].extend(result.evaluations);
@@ -115,23 +118,23 @@ impl<T: Transport> Evaluator for Pool<T> {
 }
 
 /// The chunk that flies `range` of a batch's genomes.
-fn chunk_of(batch: &Batch<'_>, range: Range<usize>, length: usize) -> Chunk {
-    let genomes = &batch.genomes[range.clone()];
+fn chunk_of(batch: &mut Batch<'_>, range: Range<usize>, length: usize) -> Chunk {
+    let header = JobHeader {
+        version: PROTOCOL_VERSION,
+        kind: KIND_EVALUATE,
+        pass: batch.pass.code(),
+        key: batch.key,
+        first_index: range.start as u64,
+        genomes: range.len() as u32,
+        genome_length: length as u32,
+        max_duration: u32::from(batch.max_duration),
+        env: batch.env,
+        guide: batch.guide,
+        ..JobHeader::default()
+    };
     Chunk {
-        header: JobHeader {
-            version: PROTOCOL_VERSION,
-            kind: KIND_EVALUATE,
-            pass: batch.pass.code(),
-            key: batch.key,
-            first_index: range.start as u64,
-            genomes: genomes.len() as u32,
-            genome_length: length as u32,
-            max_duration: u32::from(batch.max_duration),
-            env: batch.env,
-            guide: batch.guide,
-            ..JobHeader::default()
-        },
-        genes: wire_genes(genomes, length),
+        header,
+        genes: wire_genes(&batch.genomes()[range], length),
         timed: true,
     }
 }
