@@ -160,9 +160,12 @@ pub fn crossover(p: &GaParams, a: &[Gene], b: &[Gene], rng: &mut impl Rng) -> (G
         Crossover::Buckland => rng.random::<f64>() * p.genome_length as f64,
     };
     for (gx, gy) in x.iter_mut().zip(y.iter_mut()) {
-        if rng.random::<f64>() < swap_rate {
-            std::mem::swap(gx, gy);
-        }
+        // Under uniform crossover half the genes swap, at random: a branch
+        // on it would be mispredicted every other gene.
+        let swap = rng.random::<f64>() < swap_rate;
+        let (a, b) = (*gx, *gy);
+        *gx = std::hint::select_unpredictable(swap, b, a);
+        *gy = std::hint::select_unpredictable(swap, a, b);
     }
     (x, y)
 }
