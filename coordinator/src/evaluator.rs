@@ -18,7 +18,7 @@ mod pipeline;
 /// One generation's worth of work. Genome `i` uses the guided-pass stream
 /// `(key, i)`, so the results do not depend on who flies which genome.
 ///
-/// A trial's generation may still be to breed: [`genomes`](Batch::genomes)
+/// A trial's generation may not be bred yet: [`genomes`](Batch::genomes)
 /// breeds it first, and [`evaluate_here`](Batch::evaluate_here) on more
 /// than one thread flies each genome as soon as it is bred, while the next
 /// are bred (`pipeline`).

@@ -73,7 +73,7 @@ impl<T: Transport> Evaluator for Pool<T> {
         // For each chunk: its batch, the genomes it covers, their length.
         let mut spans = Vec::new();
         for (b, batch) in batches.iter_mut().enumerate() {
-            // A generation still to breed is bred here, before its chunks
+            // A generation not bred yet is bred here, before its chunks
             // go out.
             let genomes = batch.genomes();
             let length = genomes.first().map_or(0, Vec::len);
