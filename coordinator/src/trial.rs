@@ -263,6 +263,14 @@ impl TrialRun {
         })
     }
 
+    /// The generation flown last, as the guided pass left it, and its
+    /// fitness, while the next generation is still to be bred from them.
+    pub fn parents(&self) -> Option<(&[Genome], &[f64])> {
+        self.population
+            .is_empty()
+            .then_some((&self.parents[..], &self.fitness[..]))
+    }
+
     /// The generation to fly next, bred here if it is still to be bred.
     fn bred(&self) -> Vec<Genome> {
         if !self.population.is_empty() {
@@ -326,7 +334,7 @@ impl TrialRun {
 }
 
 /// The generation `key` breeds from `parents`, scored `fitness`.
-fn offspring<'a>(
+pub(crate) fn offspring<'a>(
     ga: &'a GaParams,
     parents: &'a [Genome],
     fitness: &[f64],

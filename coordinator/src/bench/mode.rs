@@ -7,8 +7,10 @@ use super::Workload;
 use crate::evaluator::{Batch, EvalError, Evaluator, InProcess};
 use crate::ga::Genome;
 use crate::pool::{ChunkTiming, IpcPool, ZenohPool};
+use crate::trial::offspring;
 use lander_model::Evaluation;
 use lander_protocol::host::{process_cpu_time, thread_cpu_time};
+use rayon::prelude::*;
 use serde::Serialize;
 use std::hash::{DefaultHasher, Hash, Hasher};
 use std::time::{Duration, Instant};
@@ -172,15 +174,24 @@ impl Mode {
         self.kind.name()
     }
 
-    /// Evaluates step `g` of the workload.
+    /// Evaluates step `g` of the workload, breeding what a run breeds.
     pub fn step(&mut self, work: &Workload, g: usize) -> Result<(), EvalError> {
-        let mut genomes: Vec<Vec<Genome>> =
-            work.steps[g].iter().map(|p| p.genomes.clone()).collect();
-        let batches = work.steps[g]
+        let ga = &work.cfg.ga;
+        let mut genomes: Vec<Vec<Genome>> = work.steps[g]
+            .iter()
+            .map(|p| match p.bred_from {
+                Some(_) => Vec::with_capacity(p.genomes.len()),
+                None => p.genomes.clone(),
+            })
+            .collect();
+        let mut batches: Vec<Batch<'_>> = work.steps[g]
             .iter()
             .zip(&mut genomes)
             .map(|(p, genomes)| {
-                let ga = &work.cfg.ga;
+                let offspring = p
+                    .bred_from
+                    .as_ref()
+                    .map(|from| offspring(ga, &from.genomes, &from.fitness, p.key));
                 Batch::new(
                     p.env,
                     work.pass,
@@ -189,10 +200,25 @@ impl Mode {
                     ga.max_duration,
                     genomes,
                 )
+                .breeding(offspring)
             })
             .collect();
         let (cpu, process_cpu) = (thread_cpu_time(), process_cpu_time());
         let started = Instant::now();
+        if batches.len() > 1 {
+            // As `lander experiment` steps its trials: bred all at once, in
+            // parallel, then flown together. A single trial is bred as
+            // `lander run` breeds it, by the evaluator.
+            let breed = |batches: &mut Vec<Batch<'_>>| {
+                batches.par_iter_mut().for_each(|b| {
+                    b.genomes();
+                })
+            };
+            match self.evaluator.threads() {
+                Some(pool) => pool.install(|| breed(&mut batches)),
+                None => breed(&mut batches),
+            }
+        }
         let evaluations = self.evaluator.evaluate_many(batches)?;
         let wall = started.elapsed();
         self.tally.elapsed += wall;

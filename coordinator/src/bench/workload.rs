@@ -30,6 +30,16 @@ pub struct Population {
     pub env: Env,
     pub key: StreamKey,
     pub genomes: Vec<Genome>,
+    /// What a run breeds `genomes` from, where it breeds them from the
+    /// generation before (not at an attempt's start): each mode breeds
+    /// them again, as that run's evaluator would.
+    pub bred_from: Option<Parents>,
+}
+
+/// A generation as the guided pass left it, and its fitness.
+pub struct Parents {
+    pub genomes: Vec<Genome>,
+    pub fitness: Vec<f64>,
 }
 
 impl Workload {
@@ -125,11 +135,16 @@ impl Flown {
                 .ok_or(TrialError::TrialNumber(self.cfg.trial))?;
             self.run = TrialRun::new(&self.cfg)?;
         }
+        let bred_from = self.run.parents().map(|(genomes, fitness)| Parents {
+            genomes: genomes.to_vec(),
+            fitness: fitness.to_vec(),
+        });
         let mut batch = self.run.batch();
         let kept = Population {
             env: batch.env,
             key: batch.key,
             genomes: batch.genomes().to_vec(),
+            bred_from,
         };
         let evaluations = batch.evaluate_here();
         self.run.accept(&evaluations);
@@ -177,6 +192,32 @@ mod tests {
             .env(0)
         );
         assert_eq!(work.genomes(), 5 * 6);
+    }
+
+    #[test]
+    fn a_bred_generation_breeds_again_into_the_runs_genomes() {
+        let cfg = small();
+        let work = Workload::new(&cfg, Pass::Guide, Some(5), 1, &Stop::new()).unwrap();
+        // Trials 1 and 2 fly generations 1 and 2, trial 3 its first.
+        for step in &work.steps {
+            let p = &step[0];
+            match &p.bred_from {
+                None => assert_eq!(p.key.generation, 1, "only an attempt's first is drawn"),
+                Some(from) => {
+                    let ga = &work.cfg.ga;
+                    let bred: Vec<Genome> =
+                        crate::trial::offspring(ga, &from.genomes, &from.fitness, p.key).collect();
+                    assert_eq!(bred, p.genomes);
+                }
+            }
+        }
+        assert_eq!(
+            work.steps
+                .iter()
+                .filter(|s| s[0].bred_from.is_some())
+                .count(),
+            2
+        );
     }
 
     #[test]

@@ -59,8 +59,8 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// The first trial flown for the workload: with the same seed, trial
-    /// and generations, the bench evaluates exactly the generations that
-    /// `lander run --seed S --trial T` evaluates.
+    /// and generations, the bench breeds and evaluates exactly the
+    /// generations that `lander run --seed S --trial T` does.
     #[arg(long, default_value_t = 1)]
     trial: u64,
     /// Transports to compare, comma-separated: inproc, iceoryx2, zenoh.
