@@ -158,24 +158,29 @@ impl QLambda {
             }
             TraceRule::Decay => {
                 let k = self.params.gamma * self.params.lambda;
-                let slot = &mut self.slot;
-                let (mut at, mut kept) = (0, 0);
-                self.traced.retain_mut(|(i, e)| {
-                    at += 1;
-                    *e *= k;
-                    if *e < TRACE_FLOOR {
-                        slot[*i] = UNTRACED;
-                        return false;
-                    }
-                    // A kept trace moves up past those dropped before it.
-                    if kept + 1 != at {
-                        slot[*i] = kept;
-                    }
-                    kept += 1;
-                    true
-                });
+                self.traced.iter_mut().for_each(|(_, e)| *e *= k);
+                self.drop_faint();
             }
         }
+    }
+
+    /// Drops the traces below [`TRACE_FLOOR`].
+    fn drop_faint(&mut self) {
+        let slot = &mut self.slot;
+        let (mut at, mut kept) = (0, 0);
+        self.traced.retain_mut(|(i, e)| {
+            at += 1;
+            if *e < TRACE_FLOOR {
+                slot[*i] = UNTRACED;
+                return false;
+            }
+            // A kept trace moves up past those dropped before it.
+            if kept + 1 != at {
+                slot[*i] = kept;
+            }
+            kept += 1;
+            true
+        });
     }
 
     fn learn(&mut self, delta: f64) {
@@ -183,6 +188,22 @@ impl QLambda {
         for &(i, e) in &self.traced {
             self.weights[i] += step * e;
         }
+    }
+
+    /// [`QLambda::learn`], and every trace decayed by γλ in the same pass
+    /// over them, ahead of knowing whether the next action keeps them (the
+    /// decay reads nothing the choice writes, nor the other way round).
+    /// Returns whether a trace fell below [`TRACE_FLOOR`].
+    fn learn_and_decay(&mut self, delta: f64) -> bool {
+        let step = self.params.alpha * delta;
+        let k = self.params.gamma * self.params.lambda;
+        let mut faint = false;
+        for (i, e) in &mut self.traced {
+            self.weights[*i] += step * *e;
+            *e *= k;
+            faint |= *e < TRACE_FLOOR;
+        }
+        faint
     }
 
     /// Every action's value into `out`, from `features`: each action's
@@ -244,12 +265,16 @@ impl QLambda {
             }
             task.features(&mut state);
             self.values(&state, &mut before);
-            self.learn(reward + self.params.gamma * max(&before) - q_sa);
+            let faint = self.learn_and_decay(reward + self.params.gamma * max(&before) - q_sa);
             // Sutton & Barto's Figure 8.8 picks the next action from the
             // values after this update.
             self.values(&state, &mut after);
             let next = self.choose(&after, rng);
-            self.apply(trace_rule(&after, next));
+            match trace_rule(&after, next) {
+                TraceRule::Cut => self.apply(TraceRule::Cut),
+                TraceRule::Decay if faint => self.drop_faint(),
+                TraceRule::Decay => {}
+            }
             action = next;
         }
         stats
@@ -303,6 +328,74 @@ mod tests {
             lambda: 0.8,
             epsilon: 0.1,
         }
+    }
+
+    /// [`QLambda::episode`] with learning and decaying as two passes over
+    /// the traces, the decay once the next action is chosen: the oracle
+    /// of the episode's single pass. Returns how many traces faded below
+    /// the floor.
+    fn episode_in_two_passes(
+        agent: &mut QLambda,
+        task: &mut Corridor,
+        rng: &mut impl Rng,
+        max_steps: u32,
+    ) -> usize {
+        let mut faded = 0;
+        task.reset();
+        agent.apply(TraceRule::Cut);
+        let (mut state, mut taken) = (vec![0usize; 2], vec![0usize; 1]);
+        let (mut before, mut after) = (vec![0.0; 2], vec![0.0; 2]);
+        task.features(&mut state);
+        agent.values(&state, &mut after);
+        let mut action = agent.choose(&after, rng);
+        for _ in 0..max_steps {
+            let a = usize::from(action);
+            taken.copy_from_slice(&state[a..a + 1]);
+            agent.accumulate(&taken);
+            let q_sa = agent.q(&taken);
+            let (reward, done) = task.step(action);
+            if done {
+                agent.learn(reward - q_sa);
+                return faded;
+            }
+            task.features(&mut state);
+            agent.values(&state, &mut before);
+            agent.learn(reward + agent.params.gamma * max(&before) - q_sa);
+            agent.values(&state, &mut after);
+            let next = agent.choose(&after, rng);
+            let (rule, traced) = (trace_rule(&after, next), agent.traced.len());
+            agent.apply(rule);
+            if rule == TraceRule::Decay {
+                faded += traced - agent.traced.len();
+            }
+            action = next;
+        }
+        faded
+    }
+
+    /// Learning and decaying in one pass learns what two passes learn, bit
+    /// for bit, traces falling below the floor and cut included (a long
+    /// corridor, λ small enough that old traces fade out).
+    #[test]
+    fn one_pass_over_the_traces_learns_as_two() {
+        let params = QParams {
+            lambda: 0.01,
+            epsilon: 0.3,
+            ..params()
+        };
+        let (mut one, mut two) = (QLambda::new(2 * N, params), QLambda::new(2 * N, params));
+        let (mut r1, mut r2) = (ChaCha8Rng::seed_from_u64(5), ChaCha8Rng::seed_from_u64(5));
+        let mut task = Corridor { at: 0 };
+        let mut faded = 0;
+        for _ in 0..300 {
+            one.episode(&mut task, &mut r1, 40);
+            faded += episode_in_two_passes(&mut two, &mut task, &mut r2, 40);
+            let bits = |a: &QLambda| a.weights.iter().map(|w| w.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&one), bits(&two));
+            assert_eq!(one.traced, two.traced);
+            assert_eq!(one.slot, two.slot);
+        }
+        assert!(faded > 0, "some traces faded below the floor");
     }
 
     #[test]
