@@ -223,12 +223,18 @@ mod tests {
         })
         .unwrap();
         assert!(whole.len() > 15, "the trial restarted");
-        // Stopped after every generation in turn, saved, read back, resumed.
-        for stop in [1, 7, 15, 16, whole.len() - 1] {
+        // Stopped after every generation in turn, saved, read back, resumed:
+        // on two threads too, where each generation flies as it is bred.
+        let mut two = InProcess::new(2).unwrap();
+        for (stop, threads) in [1, 7, 15, 16, whole.len() - 1]
+            .into_iter()
+            .flat_map(|s| [(s, 1), (s, 2)])
+        {
+            let ev: &mut InProcess = if threads == 1 { &mut ev } else { &mut two };
             let mut run = TrialRun::new(&cfg).unwrap();
             let mut seen = Vec::new();
             let mut saved = None;
-            let _ = finish_trial(&mut run, &mut ev, &mut |g, run| {
+            let _ = finish_trial(&mut run, ev, &mut |g, run| {
                 seen.push(g.clone());
                 if seen.len() == stop {
                     saved = Some(encode(&Checkpoint {
@@ -244,13 +250,13 @@ mod tests {
                 panic!("a GA trial saved as another");
             };
             let mut resumed = TrialRun::resume(&back.config, state).unwrap();
-            let end = finish_trial(&mut resumed, &mut ev, &mut |g, _| {
+            let end = finish_trial(&mut resumed, ev, &mut |g, _| {
                 seen.push(g.clone());
                 Ok(())
             })
             .unwrap();
-            assert_eq!(seen, whole, "stopped after {stop}");
-            assert_eq!(end, result, "stopped after {stop}");
+            assert_eq!(seen, whole, "stopped after {stop}, {threads} threads");
+            assert_eq!(end, result, "stopped after {stop}, {threads} threads");
         }
     }
 

@@ -18,7 +18,7 @@ mod pipeline;
 /// One generation's worth of work. Genome `i` uses the guided-pass stream
 /// `(key, i)`, so the results do not depend on who flies which genome.
 ///
-/// A trial's generation may not be bred yet: [`genomes`](Batch::genomes)
+/// A trial's generation may not be bred yet: [`bred_genomes`](Batch::bred_genomes)
 /// breeds it first, and [`evaluate_here`](Batch::evaluate_here) on more
 /// than one thread flies each genome as soon as it is bred, while the next
 /// are bred (`pipeline`).
@@ -59,7 +59,10 @@ impl<'a> Batch<'a> {
     /// The same batch, its genomes bred by `offspring` (where `Some`) into
     /// the empty `genomes`.
     pub fn breeding(mut self, offspring: Option<Offspring<'a, ChaCha8Rng>>) -> Batch<'a> {
-        debug_assert!(offspring.is_none() || self.genomes.is_empty());
+        assert!(
+            offspring.is_none() || self.genomes.is_empty(),
+            "a batch bred into genomes it already has"
+        );
         self.offspring = offspring;
         self
     }
@@ -77,7 +80,7 @@ impl<'a> Batch<'a> {
     }
 
     /// The genomes, bred first if they are still to be bred.
-    pub fn genomes(&mut self) -> &mut [Genome] {
+    pub fn bred_genomes(&mut self) -> &mut [Genome] {
         if let Some(offspring) = self.offspring.take() {
             self.genomes.extend(offspring);
         }
@@ -102,7 +105,7 @@ impl<'a> Batch<'a> {
             }
             offspring => {
                 self.offspring = offspring;
-                self.genomes()
+                self.bred_genomes()
                     .par_iter_mut()
                     .enumerate()
                     .map(|(i, g)| fly(i, g))
@@ -153,6 +156,9 @@ pub trait Evaluator {
 
     /// Flies several batches at once, such as the current generations of
     /// several trials, so that small generations still fill every core.
+    /// A batch may not be bred yet: its genomes are read through
+    /// [`Batch::bred_genomes`] (or flown by [`Batch::evaluate_here`]),
+    /// which breeds them, so that the trial finds them in place.
     fn evaluate_many(&mut self, batches: Vec<Batch<'_>>)
         -> Result<Vec<Vec<Evaluation>>, EvalError>;
 

@@ -193,7 +193,7 @@ impl TrialRun {
     /// than while it flies: for a caller that breeds many trials' next
     /// generations in parallel.
     pub fn breed(&mut self) {
-        self.batch().genomes();
+        self.batch().bred_genomes();
     }
 
     /// Takes the evaluations of [`TrialRun::batch`], one per genome in
@@ -218,7 +218,8 @@ impl TrialRun {
         if landed.is_some() || last {
             self.end_attempt();
         } else {
-            // The next generation is bred by `batch`, as it flies.
+            // The next generation is bred from these as it flies: `batch`
+            // hands the breeding to the evaluator.
             self.fitness.clear();
             self.fitness
                 .extend(evaluations.iter().map(|e| e.outcome.fitness));

@@ -207,11 +207,11 @@ impl Mode {
         let started = Instant::now();
         if batches.len() > 1 {
             // As `lander experiment` steps its trials: bred all at once, in
-            // parallel, then flown together. A single trial is bred as
-            // `lander run` breeds it, by the evaluator.
+            // parallel, then flown together. A single trial in flight is
+            // bred as `lander run` breeds it, by the evaluator.
             let breed = |batches: &mut Vec<Batch<'_>>| {
                 batches.par_iter_mut().for_each(|b| {
-                    b.genomes();
+                    b.bred_genomes();
                 })
             };
             match self.evaluator.threads() {

@@ -143,7 +143,7 @@ impl Flown {
         let kept = Population {
             env: batch.env,
             key: batch.key,
-            genomes: batch.genomes().to_vec(),
+            genomes: batch.bred_genomes().to_vec(),
             bred_from,
         };
         let evaluations = batch.evaluate_here();

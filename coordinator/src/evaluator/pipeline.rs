@@ -2,11 +2,10 @@
 //! order while the pool's other threads fly each as soon as it is ready,
 //! then the breeder flies what is left.
 //!
-//! Breeding draws from one sequential stream, so it cannot be split; run
-//! before the flying, it was a sixth of a one-trial run and idled every
-//! other thread meanwhile. One thread breeds them all, rather than
-//! whichever takes the next, so that the generator's state stays in one
-//! core's cache.
+//! Breeding draws from one sequential stream, so it cannot be split; bred
+//! before the flying, a generation would leave every other thread idle
+//! meanwhile. One thread breeds them all, rather than whichever takes the
+//! next, so that the generator's state stays in one core's cache.
 
 use crate::ga::Genome;
 use lander_model::Evaluation;
@@ -19,6 +18,51 @@ use std::sync::{Mutex, PoisonError};
 /// unless there are more threads than CPUs, when the yield lets it run.
 const SPINS_BEFORE_YIELD: u32 = 256;
 
+/// One generation's genomes, handed from the breeder to the fliers.
+struct Handover {
+    population: usize,
+    slots: Vec<Mutex<Option<Genome>>>,
+    /// Genomes bred so far: slots below it are filled.
+    ready: AtomicUsize,
+    /// The next genome to fly.
+    claimed: AtomicUsize,
+}
+
+type Flown = Vec<(usize, Genome, Evaluation)>;
+
+impl Handover {
+    /// Breeds every genome `bred` yields into its slot, in order.
+    fn breed(&self, bred: impl Iterator<Item = Genome>) {
+        // However breeding ends, no flier is left waiting.
+        let _all_ready = AllReady(&self.ready, self.population);
+        for (i, genome) in bred.enumerate().take(self.population) {
+            *self.slots[i].lock().unwrap_or_else(PoisonError::into_inner) = Some(genome);
+            self.ready.store(i + 1, Ordering::Release);
+        }
+    }
+
+    /// Flies the next genome not yet taken, as soon as it is bred, until
+    /// none is left.
+    fn fly(&self, fly: &(impl Fn(usize, &mut Genome) -> Evaluation + Sync)) -> Flown {
+        let mut flown = Vec::new();
+        loop {
+            let i = self.claimed.fetch_add(1, Ordering::Relaxed);
+            if i >= self.population {
+                return flown;
+            }
+            wait_until(|| self.ready.load(Ordering::Acquire) > i);
+            let taken = self.slots[i]
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .take();
+            if let Some(mut genome) = taken {
+                let evaluation = fly(i, &mut genome);
+                flown.push((i, genome, evaluation));
+            }
+        }
+    }
+}
+
 /// Flies the genomes `bred` yields, `fly(i, genome)` for the `i`th, on
 /// the current rayon pool; returns them as flown, in order.
 pub(super) fn fly_as_bred<I, F>(bred: I, population: usize, fly: F) -> Vec<(Genome, Evaluation)>
@@ -26,46 +70,33 @@ where
     I: Iterator<Item = Genome> + Send,
     F: Fn(usize, &mut Genome) -> Evaluation + Sync,
 {
-    let slots: Vec<Mutex<Option<Genome>>> = (0..population).map(|_| Mutex::new(None)).collect();
-    let ready = AtomicUsize::new(0);
-    let claimed = AtomicUsize::new(0);
-    let breeder = Mutex::new(Some(bred));
-    let take =
-        |slot: &Mutex<Option<Genome>>| slot.lock().unwrap_or_else(PoisonError::into_inner).take();
-    // Role 0 runs first on this thread (rayon runs a split's left half in
-    // place), so the breeder never waits for anyone, and a flier waits
-    // only for a breeder already at work.
-    let parts: Vec<Vec<(usize, Genome, Evaluation)>> = (0..rayon::current_num_threads())
-        .into_par_iter()
-        .with_max_len(1)
-        .map(|role| {
-            if role == 0 {
-                // However breeding ends, no flier is left waiting.
-                let _all_ready = AllReady(&ready, population);
-                let bred = breeder
-                    .lock()
-                    .unwrap_or_else(PoisonError::into_inner)
-                    .take();
-                for (i, genome) in bred.into_iter().flatten().enumerate().take(population) {
-                    *slots[i].lock().unwrap_or_else(PoisonError::into_inner) = Some(genome);
-                    ready.store(i + 1, Ordering::Release);
-                }
-            }
-            let mut flown = Vec::new();
-            loop {
-                let i = claimed.fetch_add(1, Ordering::Relaxed);
-                if i >= population {
-                    return flown;
-                }
-                wait_until(|| ready.load(Ordering::Acquire) > i);
-                if let Some(mut genome) = take(&slots[i]) {
-                    let evaluation = fly(i, &mut genome);
-                    flown.push((i, genome, evaluation));
-                }
-            }
-        })
+    let handover = Handover {
+        population,
+        slots: (0..population).map(|_| Mutex::new(None)).collect(),
+        ready: AtomicUsize::new(0),
+        claimed: AtomicUsize::new(0),
+    };
+    let fliers = rayon::current_num_threads().saturating_sub(1);
+    // `join` runs its first closure on this thread, at once: the breeder
+    // never waits for anyone, and a flier waits only for a breeder
+    // already at work.
+    let (mine, theirs) = rayon::join(
+        || {
+            handover.breed(bred);
+            handover.fly(&fly)
+        },
+        || {
+            (0..fliers)
+                .into_par_iter()
+                .with_max_len(1)
+                .map(|_| handover.fly(&fly))
+                .collect::<Vec<Flown>>()
+        },
+    );
+    let mut flown: Flown = mine
+        .into_iter()
+        .chain(theirs.into_iter().flatten())
         .collect();
-    let mut flown: Vec<(usize, Genome, Evaluation)> = parts.into_iter().flatten().collect();
     flown.sort_unstable_by_key(|f| f.0);
     flown.into_iter().map(|(_, g, e)| (g, e)).collect()
 }
@@ -138,6 +169,12 @@ mod tests {
                 "{threads} threads"
             );
         }
+    }
+
+    #[test]
+    fn more_threads_than_genomes_fly_each_once() {
+        let one_by_one = on(1, genomes(3), 3);
+        assert!(on(8, genomes(3), 3) == one_by_one);
     }
 
     #[test]

@@ -2,7 +2,7 @@
 
 use super::*;
 use proptest::prelude::*;
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn rng(seed: u64) -> ChaCha8Rng {
@@ -161,4 +161,56 @@ proptest! {
             prop_assert_eq!(g.len(), p.genome_length);
         }
     }
+
+    /// The generation bred one genome at a time is the one the loop that
+    /// fills it pair by pair breeds, draws and all, odd populations (whose
+    /// last pair has one child too many) and any number of elites included.
+    #[test]
+    fn offspring_breeds_the_generation_pair_by_pair(
+        seed in any::<u64>(),
+        fitness in proptest::collection::vec(-10.0f64..1000.0, 1..40),
+        elites in 0usize..6,
+    ) {
+        let p = GaParams {
+            population: fitness.len(),
+            elites: elites.min(fitness.len()),
+            genome_length: 7,
+            ..GaParams::default()
+        };
+        let population = random_population(&p, &mut rng(seed));
+        let (mut r1, mut r2) = (rng(seed ^ 1), rng(seed ^ 1));
+        prop_assert_eq!(
+            next_generation(&p, &population, &fitness, &mut r1),
+            pair_by_pair(&p, &population, &fitness, &mut r2)
+        );
+        prop_assert_eq!(r1.random::<u64>(), r2.random::<u64>(), "the draws after it");
+    }
+}
+
+/// SPEC §3's generation as a loop that fills it pair by pair: the oracle
+/// of [`Offspring`].
+fn pair_by_pair(
+    p: &GaParams,
+    population: &[Genome],
+    fitness: &[f64],
+    rng: &mut impl Rng,
+) -> Vec<Genome> {
+    let mut next: Vec<Genome> = ranking(fitness)
+        .into_iter()
+        .take(p.elites)
+        .map(|i| population[i].clone())
+        .collect();
+    let wheel = Wheel::new(fitness);
+    while next.len() < p.population {
+        let mum = &population[wheel.spin(rng)];
+        let dad = &population[wheel.spin(rng)];
+        let (mut a, mut b) = crossover(p, mum, dad, rng);
+        mutate(p, &mut a, rng);
+        mutate(p, &mut b, rng);
+        next.push(a);
+        if next.len() < p.population {
+            next.push(b);
+        }
+    }
+    next
 }

@@ -75,7 +75,7 @@ impl<T: Transport> Evaluator for Pool<T> {
         for (b, batch) in batches.iter_mut().enumerate() {
             // A generation not bred yet is bred here, before its chunks
             // go out.
-            let genomes = batch.genomes();
+            let genomes = batch.bred_genomes();
             let length = genomes.first().map_or(0, Vec::len);
             if genomes.iter().any(|g| g.len() != length) {
                 return Err(EvalError::Ragged);
@@ -103,7 +103,10 @@ impl<T: Transport> Evaluator for Pool<T> {
             &check,
             |i, result| {
                 let (b, range, _, _) = &spans[i];
-                write_back(&mut batches[*b].genomes()[range.clone()], &result.actions);
+                write_back(
+                    &mut batches[*b].bred_genomes()[range.clone()],
+                    &result.actions,
+                );
             },
         )?;
         let mut evaluations: Vec<Vec<Evaluation>> = batches
@@ -134,7 +137,7 @@ fn chunk_of(batch: &mut Batch<'_>, range: Range<usize>, length: usize) -> Chunk 
     };
     Chunk {
         header,
-        genes: wire_genes(&batch.genomes()[range], length),
+        genes: wire_genes(&batch.bred_genomes()[range], length),
         timed: true,
     }
 }
