@@ -187,6 +187,15 @@ pub trait Evaluator {
     }
 }
 
+/// Runs `work` on `evaluator`'s own threads ([`Evaluator::threads`]), or
+/// on rayon's global pool where it has none.
+pub fn on_threads<R: Send>(evaluator: &dyn Evaluator, work: impl FnOnce() -> R + Send) -> R {
+    match evaluator.threads() {
+        Some(pool) => pool.install(work),
+        None => work(),
+    }
+}
+
 /// Runs Q(λ) trials, one per job; a learner is sequential within a trial,
 /// so trials are the unit of parallelism.
 pub trait Trainer {

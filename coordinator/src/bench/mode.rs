@@ -4,7 +4,7 @@
 
 use super::figures::{overheads, percentile, Breakdown};
 use super::Workload;
-use crate::evaluator::{Batch, EvalError, Evaluator, InProcess};
+use crate::evaluator::{on_threads, Batch, EvalError, Evaluator, InProcess};
 use crate::ga::Genome;
 use crate::pool::{ChunkTiming, IpcPool, ZenohPool};
 use crate::trial::offspring;
@@ -209,15 +209,11 @@ impl Mode {
             // As `lander experiment` steps its trials: bred all at once, in
             // parallel, then flown together. A single trial in flight is
             // bred as `lander run` breeds it, by the evaluator.
-            let breed = |batches: &mut Vec<Batch<'_>>| {
+            on_threads(&*self.evaluator, || {
                 batches.par_iter_mut().for_each(|b| {
                     b.bred_genomes();
                 })
-            };
-            match self.evaluator.threads() {
-                Some(pool) => pool.install(|| breed(&mut batches)),
-                None => breed(&mut batches),
-            }
+            });
         }
         let evaluations = self.evaluator.evaluate_many(batches)?;
         let wall = started.elapsed();

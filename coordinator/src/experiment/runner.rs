@@ -6,7 +6,7 @@
 
 use super::file::Experiment;
 use crate::config::RunConfig;
-use crate::evaluator::{Backend, EvalError, Evaluator};
+use crate::evaluator::{on_threads, Backend, EvalError, Evaluator};
 use crate::trial::{Generation, TrialError, TrialResult, TrialRun};
 use lander_model::Method;
 use lander_model::TrainJob;
@@ -129,10 +129,7 @@ fn evolve<K: Copy + Send>(
         }
         let batches = running.iter_mut().map(|r| r.run.batch()).collect();
         let evaluations = backend.evaluate_many(batches)?;
-        let generations = match backend.threads() {
-            Some(pool) => pool.install(|| breed(&mut running, &evaluations)),
-            None => breed(&mut running, &evaluations),
-        };
+        let generations = on_threads(backend, || breed(&mut running, &evaluations));
         for (r, generation) in running.iter_mut().zip(generations) {
             progress.generation(r.key, &generation);
             r.log.push(generation);
