@@ -37,6 +37,7 @@ fn worker_pool() -> IpcPool {
         min_workers: 0,
         spin: std::time::Duration::ZERO,
         verify: 0.0,
+        share: false,
         stop: Default::default(),
     };
     let mut pool = IpcPool::start(opts, Default::default()).expect("pool starts");

@@ -29,6 +29,8 @@ pub struct CoordinatorMetrics {
     pub workers_connected: IntGaugeVec,
     pub chunks_dispatched: IntCounter,
     pub chunks_taken_back: IntCounter,
+    /// Chunks the coordinator flew itself (`--coordinator-share`).
+    pub chunks_flown_here: IntCounter,
     /// Chunks sent again because their worker died, left, missed its
     /// deadline or was refused; by that cause.
     pub chunks_redispatched: IntCounterVec,
@@ -154,6 +156,11 @@ impl CoordinatorMetrics {
                 &r,
                 "lander_chunks_taken_back_total",
                 "Queued chunks moved from a busy worker to an idle one.",
+            ),
+            chunks_flown_here: counter(
+                &r,
+                "lander_chunks_flown_here_total",
+                "Chunks the coordinator flew itself rather than wait for a worker.",
             ),
             chunks_redispatched: counter_vec(
                 &r,

@@ -3,8 +3,8 @@
 //! hang, or come and go.
 
 use lander_tests::{
-    events, has_exited, interrupt, json_lines, json_out, lines_in, signal, stderr, wait_until,
-    without_wall_time, worker_children, worker_id_of, Iox,
+    events, free_port, has_exited, http_get, interrupt, json_lines, json_out, lines_in, signal,
+    stderr, wait_until, without_wall_time, worker_children, worker_id_of, Iox,
 };
 use serde_json::Value;
 use std::fs;
@@ -71,6 +71,8 @@ fn summary_of(child: Child) -> Value {
     without_wall_time(json_out(&out))
 }
 
+/// Whatever the worker count, and whether the coordinator flies a share
+/// of each generation itself or leaves it all to the workers.
 #[test]
 fn results_are_byte_identical_for_0_1_2_and_3_workers() {
     let _one_at_a_time = serial();
@@ -88,20 +90,28 @@ fn results_are_byte_identical_for_0_1_2_and_3_workers() {
             "--json",
         ];
         let mut runs = Vec::new();
-        for workers in ["0", "1", "2", "3"] {
+        let counts = [
+            ("0", "auto"),
+            ("1", "always"),
+            ("1", "never"),
+            ("2", "auto"),
+            ("3", "always"),
+        ];
+        for (workers, share) in counts {
             let dir = tempfile::tempdir().unwrap();
             let mut a = args.to_vec();
             a.extend(["--workers", workers]);
+            if workers != "0" {
+                a.extend(["--coordinator-share", share]);
+            }
             runs.push(finished(&iox, dir.path(), &a));
         }
-        for (i, run) in runs.iter().enumerate().skip(1) {
-            assert_eq!(
-                run.0, runs[0].0,
-                "{method}: summary with {i} workers differs"
-            );
+        for ((workers, share), run) in counts.iter().zip(&runs).skip(1) {
+            let with = format!("{workers} workers, --coordinator-share {share}");
+            assert_eq!(run.0, runs[0].0, "{method}: summary with {with} differs");
             assert!(
                 run.1 == runs[0].1,
-                "{method}: generations.jsonl with {i} workers differs"
+                "{method}: generations.jsonl with {with} differs"
             );
         }
     }
@@ -205,6 +215,45 @@ fn spawned_workers_spin_only_with_a_cpu_to_spare() {
     if cpus > 1 {
         assert_eq!(spins(cpus - 1), vec![true; cpus - 1], "a CPU to spare");
     }
+}
+
+/// `--coordinator-share always` has the coordinator fly chunks itself,
+/// `never` leaves every chunk to the workers: read from its metrics.
+#[test]
+fn the_coordinator_flies_a_share_only_where_told() {
+    let _one_at_a_time = serial();
+    let iox = Iox::new("share");
+    let flown_here = |share: &str| -> (f64, f64) {
+        let dir = tempfile::tempdir().unwrap();
+        let cfg = never_lands(dir.path());
+        let addr = format!("127.0.0.1:{}", free_port());
+        let mut args = LONG.to_vec();
+        args.extend(["--config", &cfg, "--workers", "1"]);
+        args.extend(["--coordinator-share", share, "--metrics", &addr]);
+        let child = start(&iox, dir.path(), &args);
+        let counter = |name: &str| -> f64 {
+            let text = http_get(&addr, "/metrics").unwrap_or_default();
+            text.lines()
+                .find_map(|l| l.strip_prefix(&format!("{name} ")))
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(0.0)
+        };
+        let log = dir.path().join("generations.jsonl");
+        assert!(
+            wait_until(60, || lines_in(&log) >= 20),
+            "the run did not get going"
+        );
+        let counts = (
+            counter("lander_chunks_flown_here_total"),
+            counter("lander_chunks_dispatched_total"),
+        );
+        interrupt(child);
+        counts
+    };
+    let (here, sent) = flown_here("always");
+    assert!(here > 0.0 && sent > 0.0, "always: {here} here, {sent} sent");
+    let (here, sent) = flown_here("never");
+    assert!(here == 0.0 && sent > 0.0, "never: {here} here, {sent} sent");
 }
 
 /// Runs LONG over two spawned workers, doing `disturb` to them once 40
@@ -486,6 +535,14 @@ fn bad_worker_options_are_refused() {
         (
             vec!["bench", "--stress", "--kill-rate", "1e308"],
             "--kill-rate must be 0 to 100",
+        ),
+        (
+            vec!["run", "--workers", "1", "--coordinator-share", "sometimes"],
+            "--coordinator-share",
+        ),
+        (
+            vec!["run", "--coordinator-share", "always"],
+            "--coordinator-share needs --workers or --attach",
         ),
     ] {
         let out = iox.lander(&args);

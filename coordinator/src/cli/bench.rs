@@ -3,7 +3,7 @@
 //! warm-up, the turns, the ratios and the agreement of the results are the
 //! library's (`lander_coordinator::bench`).
 
-use super::transport::pool_options;
+use super::transport::{pool_options, CoordinatorShare};
 use anyhow::Context;
 use clap::Args;
 use lander_coordinator::bench::{Measured, Mode, ModeKind, Plan, Report, Workload};
@@ -95,6 +95,10 @@ pub struct BenchArgs {
     /// 1, as `lander run --verify`, to measure what checking costs.
     #[arg(long, value_name = "RATE", default_value_t = 0.0)]
     verify: f64,
+    /// Whether the coordinator of the worker-process modes flies queued
+    /// chunks itself, as `lander run --coordinator-share`.
+    #[arg(long, value_enum, value_name = "WHEN", default_value_t = CoordinatorShare::Auto)]
+    coordinator_share: CoordinatorShare,
     /// With --stress: worker kills per second, on average.
     #[arg(long, value_name = "PER_S", default_value_t = 2.0)]
     kill_rate: f64,
@@ -136,6 +140,7 @@ fn pool_options_for(
         args.verify
     );
     opts.verify = args.verify;
+    opts.share = args.coordinator_share.applies(workers);
     Ok(opts)
 }
 

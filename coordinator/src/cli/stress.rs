@@ -96,6 +96,8 @@ pub fn stress(args: &StressArgs, work: &Workload, stop_asked: &Stop) -> anyhow::
     )?;
     opts.chunks_per_worker = 16;
     opts.max_respawns = usize::MAX;
+    // Every chunk goes through the workers being killed.
+    opts.share = false;
     let mut pool = IpcPool::start(opts, lander_telemetry::Telemetry::silent())?;
     pool.wait_for_workers(args.workers, Duration::from_secs(20))
         .context("waiting for the workers")?;

@@ -24,6 +24,31 @@ pub enum TransportArg {
     Zenoh,
 }
 
+/// Whether the coordinator flies a share of each generation itself,
+/// between answers, rather than sleeping while its workers fly.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CoordinatorShare {
+    /// Where spawned workers leave a CPU idle: fewer of them than CPUs.
+    /// Never with --attach, whose workers may be on this host's CPUs.
+    Auto,
+    Always,
+    Never,
+}
+
+impl CoordinatorShare {
+    /// Whether the coordinator of `spawned` workers (0: attached ones)
+    /// flies a share.
+    pub fn applies(self, spawned: usize) -> bool {
+        match self {
+            CoordinatorShare::Always => true,
+            CoordinatorShare::Never => false,
+            CoordinatorShare::Auto => {
+                spawned > 0 && spawned < lander_protocol::host::allowed_cpus().len()
+            }
+        }
+    }
+}
+
 /// The longest `--deadline`: a day for one chunk is already no deadline.
 const MAX_DEADLINE_S: f64 = 86_400.0;
 
@@ -85,6 +110,11 @@ pub struct TransportArgs {
     /// its chunks flown again [default: 0.02 over zenoh, 0 over iceoryx2].
     #[arg(long, value_name = "RATE")]
     verify: Option<f64>,
+    /// Whether the coordinator flies queued chunks itself between answers
+    /// instead of sleeping [default: auto: where the spawned workers leave
+    /// a CPU idle].
+    #[arg(long, value_enum, value_name = "WHEN")]
+    coordinator_share: Option<CoordinatorShare>,
     #[command(flatten)]
     pub watch: WatchArgs,
 }
@@ -172,6 +202,10 @@ impl TransportArgs {
                 "--verify needs --workers or --attach: in-process there is no worker to check"
             );
             anyhow::ensure!(
+                self.coordinator_share.is_none(),
+                "--coordinator-share needs --workers or --attach: in-process every thread flies"
+            );
+            anyhow::ensure!(
                 self.transport == TransportArg::Iceoryx2,
                 "--transport zenoh needs --workers N or --attach; without them evaluation is in-process"
             );
@@ -185,6 +219,10 @@ impl TransportArgs {
         let deadline = Duration::from_secs_f64(self.deadline);
         let mut opts = pool_options(run_id, self.workers, deadline, !self.no_pin, stop)?;
         opts.spin = Duration::from_micros(self.spin_us);
+        opts.share = self
+            .coordinator_share
+            .unwrap_or(CoordinatorShare::Auto)
+            .applies(self.workers);
         opts.verify = match (self.verify, self.transport) {
             (Some(rate), _) => rate,
             (None, TransportArg::Zenoh) => DEFAULT_VERIFY_ZENOH,
@@ -261,6 +299,7 @@ pub fn pool_options(
         min_workers: 0,
         spin: DEFAULT_SPIN,
         verify: 0.0,
+        share: CoordinatorShare::Auto.applies(workers),
         stop: stop.clone(),
     })
 }

@@ -65,7 +65,8 @@ impl<T: Transport> Evaluator for Pool<T> {
         &mut self,
         mut batches: Vec<Batch<'_>>,
     ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
-        let workers = self.links.len().max(self.opts.spawn).max(1);
+        // A coordinator that flies a share counts as one more worker.
+        let workers = self.links.len().max(self.opts.spawn).max(1) + usize::from(self.opts.share);
         // About `chunks_per_worker` chunks per worker in all, however many
         // batches share them.
         let per_batch = (workers * self.opts.chunks_per_worker).div_ceil(batches.len().max(1));

@@ -98,6 +98,11 @@ pub struct PoolOptions {
     /// The share of answered evaluation chunks flown again in-process and
     /// compared, 0 to 1 (`verify`).
     pub verify: f64,
+    /// The coordinator flies a share of each generation itself, between
+    /// answers, rather than sleeping while chunks wait for room at a
+    /// worker: for when a CPU of its own would otherwise idle
+    /// (`schedule.rs`, `Pool::fly_a_share`).
+    pub share: bool,
     /// Asked to stop, the pool ends the run at its next look.
     pub stop: Stop,
 }
@@ -119,6 +124,8 @@ pub struct Pool<T: Transport> {
     next_job: u64,
     /// Chunks moved from a busy worker's queue to an idle worker.
     taken_back: u64,
+    /// Chunks the coordinator flew itself (`PoolOptions::share`).
+    flown_here: u64,
     told_waiting: bool,
     /// Kept only when asked for, so long runs do not accumulate them.
     timings: Option<Vec<ChunkTiming>>,

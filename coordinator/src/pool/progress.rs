@@ -110,6 +110,16 @@ impl<R> Progress<R> {
         self.remaining -= 1;
     }
 
+    /// Takes `value`, flown here, as chunk `c`'s result: no worker owns it,
+    /// and an answer to it from a worker that had it is not read.
+    pub fn take_here(&mut self, c: usize, value: R) {
+        self.answered[c] = true;
+        self.todo.retain(|&i| i != c);
+        self.done[c] = Some(value);
+        self.owner[c] = None;
+        self.remaining -= 1;
+    }
+
     /// Holds `value` from worker `by` for chunk `c` and queues its check.
     pub fn hold(&mut self, c: usize, value: R, by: u64) {
         self.held.insert(c, Held { value, by });

@@ -8,7 +8,7 @@ use super::progress::{subject, Progress};
 use super::verify::{Check, Outcome, Verdict};
 use super::{Answer, Pool, Transport, WorkerLink};
 use crate::evaluator::EvalError;
-use lander_protocol::wire::{JobHeader, WireGene};
+use lander_protocol::wire::{JobHeader, WireGene, KIND_EVALUATE};
 use lander_telemetry::events::Cause;
 use lander_telemetry::Event;
 use std::collections::VecDeque;
@@ -54,6 +54,12 @@ impl<T: Transport> Pool<T> {
     /// Chunks moved so far from a busy worker to an idle one.
     pub fn taken_back(&self) -> u64 {
         self.taken_back
+    }
+
+    /// Chunks flown so far by the coordinator itself
+    /// ([`PoolOptions::share`](super::PoolOptions::share)).
+    pub fn flown_here(&self) -> u64 {
+        self.flown_here
     }
 
     /// Runs every chunk on the workers and returns the answers in chunk
@@ -134,8 +140,11 @@ impl<T: Transport> Pool<T> {
             }
             self.tell_waiting();
             // A refused worker's chunks that found no room go out at the
-            // next pass, not after a sleep.
-            if distrusted.is_empty() {
+            // next pass, not after a sleep; with a share of its own, the
+            // coordinator sleeps only when it has nothing to fly.
+            if distrusted.is_empty()
+                && !self.fly_a_share(chunks, &mut progress, check, &mut finished)
+            {
                 self.sleep()?;
             }
         }
@@ -298,6 +307,68 @@ impl<T: Transport> Pool<T> {
                 break;
             }
             self.hand(idle, chunks, chunk, &mut progress.todo);
+        }
+    }
+
+    /// With [`PoolOptions::share`](super::PoolOptions::share), flies one
+    /// evaluation chunk here instead of sleeping: the first still queued
+    /// (every worker's queue being full), or else the last queued at the
+    /// worker with the longest backlog, taken back as an idle worker takes
+    /// it. Returns whether it flew one. Between chunks the coordinator
+    /// collects answers and refills the workers, so that they never wait
+    /// on it for longer than one small chunk.
+    fn fly_a_share<R>(
+        &mut self,
+        chunks: &[Chunk],
+        progress: &mut Progress<R>,
+        check: &Check<'_, R>,
+        finished: &mut impl FnMut(usize, &R),
+    ) -> bool {
+        if !self.opts.share {
+            return false;
+        }
+        let n = chunks.len();
+        let flies_here = |i: usize| i < n && chunks[i].header.kind == KIND_EVALUATE;
+        let (chunk, queued) = match progress.todo.front() {
+            Some(&i) if flies_here(i) => (i, true),
+            Some(_) => return false,
+            None => {
+                let backlog = self
+                    .links
+                    .iter_mut()
+                    .filter(|l| l.in_flight() >= 2)
+                    .max_by_key(|l| l.in_flight());
+                let Some(i) = backlog.and_then(|l| l.take_back()) else {
+                    return false;
+                };
+                if !flies_here(i) {
+                    // A check: it goes out again with the next hand-out.
+                    progress.todo.push_back(i);
+                    return false;
+                }
+                self.taken_back += 1;
+                (i, false)
+            }
+        };
+        match (check.here)(chunk) {
+            Ok(value) => {
+                finished(chunk, &value);
+                progress.take_here(chunk, value);
+                self.flown_here += 1;
+                if let Some(m) = self.telemetry.metrics() {
+                    m.chunks_flown_here.inc();
+                }
+                true
+            }
+            Err(e) => {
+                // Its chunks all fly on workers from now on.
+                tracing::warn!("the coordinator cannot fly chunk {chunk} itself: {e}");
+                self.opts.share = false;
+                if !queued {
+                    progress.again(chunk);
+                }
+                false
+            }
         }
     }
 

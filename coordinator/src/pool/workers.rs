@@ -47,6 +47,7 @@ impl<T: Transport> Pool<T> {
             dropped: HashSet::new(),
             next_job: 0,
             taken_back: 0,
+            flown_here: 0,
             told_waiting: false,
             timings: None,
             busy: std::time::Duration::ZERO,

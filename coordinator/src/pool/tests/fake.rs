@@ -145,6 +145,7 @@ pub fn options() -> PoolOptions {
         min_workers: 0,
         spin: Duration::ZERO,
         verify: 0.0,
+        share: false,
         stop: Stop::new(),
     }
 }

@@ -9,4 +9,5 @@ mod deaths;
 mod dispatch;
 mod fake;
 mod refusals;
+mod share;
 mod versions;

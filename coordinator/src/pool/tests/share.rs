@@ -1,0 +1,95 @@
+//! `PoolOptions::share`: the coordinator flies queued evaluation chunks
+//! itself between answers, and takes one back from a worker's backlog
+//! once nothing waits, rather than sleeping.
+
+use super::fake::{no_chunks, Nowhere, Recorder};
+use crate::pool::verify::Check;
+use crate::pool::{Pool, PoolOptions};
+use lander_protocol::wire::KIND_TRAIN;
+use std::cell::RefCell;
+
+const CHUNKS: usize = 12;
+
+/// A pool of one worker answering every chunk at the next look.
+fn one_worker(share: bool) -> Pool<Nowhere> {
+    let opts = PoolOptions {
+        share,
+        ..super::fake::options()
+    };
+    let mut pool = Pool::with_transport(Nowhere, opts, Default::default()).unwrap();
+    pool.links = vec![Recorder {
+        answer: Some(vec![1]),
+        ..Recorder::holding(7, Vec::new())
+    }];
+    pool
+}
+
+/// Runs `chunks`: a worker's answer to chunk `c` reads `10c + 1`, the
+/// coordinator's `10c`. Returns the results and the chunks flown here, in
+/// the order flown.
+fn run(pool: &mut Pool<Nowhere>, chunks: &[crate::pool::Chunk]) -> (Vec<usize>, Vec<usize>) {
+    let here = RefCell::new(Vec::new());
+    let check = Check {
+        due: &|_, _| false,
+        here: &|c| {
+            here.borrow_mut().push(c);
+            Ok(10 * c)
+        },
+        differs: &|_, _, _| None,
+    };
+    let decode = |c: usize, body: &[u8]| Ok(10 * c + usize::from(body[0]));
+    let results = pool.run_checked(chunks, decode, &check, |_, _| {}).unwrap();
+    (results, here.into_inner())
+}
+
+#[test]
+fn the_coordinator_flies_what_waits_and_a_backlog_taken_back() {
+    let mut pool = one_worker(true);
+    let (results, here) = run(&mut pool, &no_chunks(CHUNKS));
+    assert!(!here.is_empty(), "nothing flown here");
+    assert_eq!(pool.flown_here(), here.len() as u64);
+    // Each chunk's result is the worker's or the coordinator's, once.
+    for (c, &r) in results.iter().enumerate() {
+        let by_here = here.contains(&c);
+        assert_eq!(r, 10 * c + usize::from(!by_here), "chunk {c}");
+    }
+    let mut flown: Vec<usize> = here.clone();
+    flown.extend(pool.links[0].sent.iter().filter(|c| !here.contains(c)));
+    flown.sort_unstable();
+    assert_eq!(flown, (0..CHUNKS).collect::<Vec<_>>(), "every chunk once");
+    // With nothing left queued, the last chunk of the worker's backlog
+    // was taken back and flown here.
+    let sent_then_here: Vec<&usize> = here
+        .iter()
+        .filter(|c| pool.links[0].sent.contains(c))
+        .collect();
+    assert!(
+        !sent_then_here.is_empty(),
+        "no backlog taken back: {here:?}"
+    );
+    assert_eq!(pool.taken_back(), sent_then_here.len() as u64);
+}
+
+#[test]
+fn without_a_share_every_chunk_goes_to_the_workers() {
+    let mut pool = one_worker(false);
+    let (results, here) = run(&mut pool, &no_chunks(CHUNKS));
+    assert!(here.is_empty());
+    assert_eq!(pool.flown_here(), 0);
+    let expected: Vec<usize> = (0..CHUNKS).map(|c| 10 * c + 1).collect();
+    assert_eq!(results, expected);
+}
+
+#[test]
+fn training_chunks_are_left_to_the_workers() {
+    let mut pool = one_worker(true);
+    let mut chunks = no_chunks(CHUNKS);
+    for chunk in &mut chunks {
+        chunk.header.kind = KIND_TRAIN;
+        chunk.timed = false;
+    }
+    let (results, here) = run(&mut pool, &chunks);
+    assert!(here.is_empty(), "a Q(λ) trial was flown here: {here:?}");
+    let expected: Vec<usize> = (0..CHUNKS).map(|c| 10 * c + 1).collect();
+    assert_eq!(results, expected);
+}
