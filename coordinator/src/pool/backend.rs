@@ -7,6 +7,7 @@ use super::schedule::{chunk_ranges, Chunk};
 use super::verify::{self, Check};
 use super::{Pool, Transport};
 use crate::evaluator::{Batch, EvalError, Evaluator, Trainer};
+use lander_model::learn::run_training;
 use lander_model::{Action, Evaluation, TrainJob, TrainResult};
 use lander_protocol::wire::{
     decode_training, pack_state, ChunkResult, JobHeader, WireGene, KIND_EVALUATE, KIND_TRAIN,
@@ -44,9 +45,13 @@ impl<T: Transport> Trainer for Pool<T> {
                 }
             })
             .collect();
-        self.run_chunks(
+        // With a share of its own, the coordinator trains queued trials
+        // too, between answers.
+        let here = |i: usize| run_training(&trials[i]);
+        self.run_checked(
             &chunks,
             |i, body| decode_training(body, &trials[i]).map_err(|e| e.to_string()),
+            &Check::sharing(&here),
             done,
         )
     }
@@ -94,6 +99,7 @@ impl<T: Transport> Evaluator for Pool<T> {
             due: &|i, first| verify::due(&chunks[i].header, rate, first),
             here: &|i| verify::fly_here(&chunks[i]),
             differs: &|i, truth, answer| verify::differs(&chunks[i], truth, answer),
+            shares: true,
         };
         let results = self.run_checked(
             &chunks,

@@ -8,7 +8,7 @@ use super::progress::{subject, Progress};
 use super::verify::{Check, Outcome, Verdict};
 use super::{Answer, Pool, Transport, WorkerLink};
 use crate::evaluator::EvalError;
-use lander_protocol::wire::{JobHeader, WireGene, KIND_EVALUATE};
+use lander_protocol::wire::{JobHeader, WireGene};
 use lander_telemetry::events::Cause;
 use lander_telemetry::Event;
 use std::collections::VecDeque;
@@ -310,8 +310,8 @@ impl<T: Transport> Pool<T> {
         }
     }
 
-    /// With [`PoolOptions::share`](super::PoolOptions::share), flies one
-    /// evaluation chunk here instead of sleeping: the first still queued
+    /// With [`PoolOptions::share`](super::PoolOptions::share) and a `check`
+    /// that shares, flies one chunk here instead of sleeping: the first still queued
     /// (every worker's queue being full), or else the last queued at the
     /// worker with the longest backlog, taken back as an idle worker takes
     /// it. Returns whether it flew one. Between chunks the coordinator
@@ -324,11 +324,11 @@ impl<T: Transport> Pool<T> {
         check: &Check<'_, R>,
         finished: &mut impl FnMut(usize, &R),
     ) -> bool {
-        if !self.opts.share {
+        if !self.opts.share || !check.shares {
             return false;
         }
         let n = chunks.len();
-        let flies_here = |i: usize| i < n && chunks[i].header.kind == KIND_EVALUATE;
+        let flies_here = |i: usize| i < n;
         let (chunk, queued) = match progress.todo.front() {
             Some(&i) if flies_here(i) => (i, true),
             Some(_) => return false,
@@ -361,7 +361,7 @@ impl<T: Transport> Pool<T> {
                 true
             }
             Err(e) => {
-                // Its chunks all fly on workers from now on.
+                // The workers fly it, and every chunk from now on.
                 tracing::warn!("the coordinator cannot fly chunk {chunk} itself: {e}");
                 self.opts.share = false;
                 if !queued {

@@ -32,15 +32,29 @@ pub(super) struct Check<'a, R> {
     /// What in the second answer to chunk `c` differs from the first
     /// ("its evaluation of genome 7"), if anything.
     pub differs: &'a dyn Fn(usize, &R, &R) -> Option<String>,
+    /// Whether `here` may also fly chunks as the coordinator's own share
+    /// (`PoolOptions::share`, `Pool::fly_a_share`).
+    pub shares: bool,
 }
 
 impl<'a, R: 'a> Check<'a, R> {
-    /// Checks nothing.
+    /// Checks nothing, and flies nothing here.
     pub fn none() -> Check<'a, R> {
         Check {
             due: &never,
             here: &nowhere::<R>,
             differs: &alike::<R>,
+            shares: false,
+        }
+    }
+
+    /// Checks nothing; `here` flies a chunk as the coordinator's share.
+    pub fn sharing(here: &'a dyn Fn(usize) -> Result<R, String>) -> Check<'a, R> {
+        Check {
+            due: &never,
+            here,
+            differs: &alike::<R>,
+            shares: true,
         }
     }
 }

@@ -1,6 +1,6 @@
-//! `PoolOptions::share`: the coordinator flies queued evaluation chunks
-//! itself between answers, and takes one back from a worker's backlog
-//! once nothing waits, rather than sleeping.
+//! `PoolOptions::share`: the coordinator flies queued chunks itself
+//! between answers (evaluations and Q(λ) trials alike), and takes one back
+//! from a worker's backlog once nothing waits, rather than sleeping.
 
 use super::fake::{no_chunks, Nowhere, Recorder};
 use crate::pool::verify::Check;
@@ -36,6 +36,7 @@ fn run(pool: &mut Pool<Nowhere>, chunks: &[crate::pool::Chunk]) -> (Vec<usize>, 
             Ok(10 * c)
         },
         differs: &|_, _, _| None,
+        shares: true,
     };
     let decode = |c: usize, body: &[u8]| Ok(10 * c + usize::from(body[0]));
     let results = pool.run_checked(chunks, decode, &check, |_, _| {}).unwrap();
@@ -81,7 +82,7 @@ fn without_a_share_every_chunk_goes_to_the_workers() {
 }
 
 #[test]
-fn training_chunks_are_left_to_the_workers() {
+fn queued_training_jobs_are_shared_too() {
     let mut pool = one_worker(true);
     let mut chunks = no_chunks(CHUNKS);
     for chunk in &mut chunks {
@@ -89,7 +90,20 @@ fn training_chunks_are_left_to_the_workers() {
         chunk.timed = false;
     }
     let (results, here) = run(&mut pool, &chunks);
-    assert!(here.is_empty(), "a Q(λ) trial was flown here: {here:?}");
+    assert!(!here.is_empty(), "no Q(λ) trial trained here");
+    for (c, &r) in results.iter().enumerate() {
+        assert_eq!(r, 10 * c + usize::from(!here.contains(&c)), "chunk {c}");
+    }
+}
+
+#[test]
+fn chunks_the_coordinator_cannot_fly_are_left_to_the_workers() {
+    let mut pool = one_worker(true);
+    let decode = |c: usize, body: &[u8]| Ok(10 * c + usize::from(body[0]));
+    let results = pool
+        .run_chunks(&no_chunks(CHUNKS), decode, |_, _| {})
+        .unwrap();
+    assert_eq!(pool.flown_here(), 0);
     let expected: Vec<usize> = (0..CHUNKS).map(|c| 10 * c + 1).collect();
     assert_eq!(results, expected);
 }
