@@ -7,7 +7,9 @@
 //! to whichever worker has room first. Once none is left to hand out, a
 //! worker that has answered everything takes the last queued chunk of a
 //! busy one (`Pool::rebalance`). The pool sleeps on its `wake` event
-//! between results, never spinning. A chunk whose worker dies (its process
+//! between results, never spinning; where it has a CPU that would
+//! otherwise idle ([`PoolOptions::share`]), it first flies a queued chunk
+//! itself (`Pool::fly_a_share`). A chunk whose worker dies (its process
 //! exits, its node is found dead, or its server disconnects) or misses its
 //! deadline goes back in the queue; a late duplicate is dropped
 //! by job id. Results are placed by chunk, so they are identical however the
@@ -21,7 +23,7 @@
 //! - `workers`: the workers' lifecycle: accepting, waiting, reaping,
 //!   respawning (with `spawn`), shutting down;
 //! - `schedule`: cutting a generation into chunks, handing them out,
-//!   taking them back, [`Pool::run_chunks`];
+//!   taking them back, the coordinator's share, [`Pool::run_chunks`];
 //! - `progress`: where a generation's chunks stand while they run;
 //! - `verify`: `--verify`, answers held until another worker (or this
 //!   process) has flown their chunks again;
