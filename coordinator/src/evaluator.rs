@@ -87,6 +87,26 @@ impl<'a> Batch<'a> {
         self.genomes
     }
 
+    /// Whether every genome is bred.
+    pub fn is_bred(&self) -> bool {
+        self.offspring.is_none()
+    }
+
+    /// The first `end` genomes (all there are, if fewer), breeding only as
+    /// far as them if they are still to be bred: the rest are bred, in
+    /// order, by later calls.
+    pub fn bred_up_to(&mut self, end: usize) -> &mut [Genome] {
+        if let Some(offspring) = &mut self.offspring {
+            let more = end.saturating_sub(self.genomes.len());
+            self.genomes.extend(offspring.by_ref().take(more));
+            if self.genomes.len() >= offspring.population() {
+                self.offspring = None;
+            }
+        }
+        let end = end.min(self.genomes.len());
+        &mut self.genomes[..end]
+    }
+
     /// Evaluates every genome here, on the current rayon pool, rewriting
     /// the genomes as the guided pass leaves them.
     pub fn evaluate_here(mut self) -> Vec<Evaluation> {

@@ -1,5 +1,6 @@
 //! What both sides of a run read of the host they run on: the CPUs this
-//! process may use, from which the coordinator places its workers; the
+//! process may use, from which the coordinator places its workers, and
+//! pinning a thread to one of them; the
 //! host's monotonic clock, in which workers stamp their results and the
 //! pool its requests and answers; a thread's CPU time, which `lander
 //! bench` reports; and this process's memory and open descriptors, which
@@ -28,6 +29,49 @@ pub fn allowed_cpus() -> Vec<usize> {
         (0..libc::CPU_SETSIZE as usize)
             .filter(|&cpu| libc::CPU_ISSET(cpu, &set))
             .collect()
+    }
+}
+
+/// The CPUs a thread ran on before [`pin_to`] pinned it.
+#[derive(Clone, Copy)]
+pub struct Affinity(libc::cpu_set_t);
+
+impl Affinity {
+    /// Lets the calling thread run on these CPUs again.
+    pub fn restore(&self) -> std::io::Result<()> {
+        // SAFETY: a cpu_set_t read by sched_getaffinity, of its own size.
+        if unsafe { libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &self.0) }
+            != 0
+        {
+            return Err(std::io::Error::last_os_error());
+        }
+        Ok(())
+    }
+}
+
+/// Runs the calling thread, and the threads it starts from now on, on
+/// `cpu` only; returns the CPUs it could run on before.
+pub fn pin_to(cpu: usize) -> std::io::Result<Affinity> {
+    if cpu >= libc::CPU_SETSIZE as usize {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("CPU {cpu} is beyond the largest CPU number this system supports"),
+        ));
+    }
+    // SAFETY: zeroed cpu_set_t values are valid empty sets; `cpu` is below
+    // CPU_SETSIZE, so CPU_SET stays inside the set; both calls are given
+    // the set's own size.
+    unsafe {
+        let mut before: libc::cpu_set_t = std::mem::zeroed();
+        if libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mut before) != 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_SET(cpu, &mut set);
+        if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+        Ok(Affinity(before))
     }
 }
 
@@ -87,6 +131,25 @@ pub fn host_clock_ns() -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_thread_pinned_to_one_cpu_runs_there_until_restored() {
+        // A thread of its own, so the rest of the test process keeps its CPUs.
+        std::thread::spawn(|| {
+            let before = allowed_cpus();
+            let last = *before.last().unwrap();
+            let affinity = pin_to(last).unwrap();
+            assert_eq!(allowed_cpus(), [last]);
+            // A thread started now runs there too.
+            let child = std::thread::spawn(allowed_cpus).join().unwrap();
+            assert_eq!(child, [last]);
+            affinity.restore().unwrap();
+            assert_eq!(allowed_cpus(), before);
+            assert!(pin_to(libc::CPU_SETSIZE as usize).is_err());
+        })
+        .join()
+        .unwrap();
+    }
 
     #[test]
     fn a_busy_thread_uses_cpu_time_and_a_sleeping_one_does_not() {

@@ -177,21 +177,23 @@ fn under_way(iox: &Iox, dir: &Path, args: &[&str], lines: usize) -> (Child, Vec<
     (child, workers)
 }
 
-/// Spawned workers are told to spin only where they and the coordinator
-/// have a CPU each: with one worker fewer than the CPUs, and never with as
-/// many workers as CPUs. Read from the workers' own command lines.
+/// Spawned workers are told to spin only where no other process of the
+/// run needs their CPU: all of them with one worker fewer than the CPUs;
+/// with as many workers as CPUs all but the one whose CPU the coordinator
+/// shares; without pinning, none. Read from the workers' own command lines.
 #[test]
 fn spawned_workers_spin_only_with_a_cpu_to_spare() {
     let _one_at_a_time = serial();
     let iox = Iox::new("spin");
     // The CPUs the coordinator counts: those this process may run on.
     let cpus = lander_protocol::host::allowed_cpus().len().max(1);
-    let spins = |workers: usize| -> Vec<bool> {
+    let spins = |workers: usize, extra: &[&str]| -> Vec<bool> {
         let dir = tempfile::tempdir().unwrap();
         let cfg = never_lands(dir.path());
         let many = workers.to_string();
         let mut args = LONG.to_vec();
         args.extend(["--config", &cfg, "--workers", &many]);
+        args.extend_from_slice(extra);
         let child = start(&iox, dir.path(), &args);
         let log = dir.path().join("generations.jsonl");
         assert!(
@@ -211,9 +213,19 @@ fn spawned_workers_spin_only_with_a_cpu_to_spare() {
         assert_eq!(told.len(), workers);
         told
     };
-    assert_eq!(spins(cpus), vec![false; cpus], "as many workers as CPUs");
+    let spinning = |told: Vec<bool>| told.iter().filter(|&&s| s).count();
+    assert_eq!(
+        spinning(spins(cpus, &[])),
+        cpus - 1,
+        "as many workers as CPUs: all but the one beside the coordinator"
+    );
+    assert_eq!(
+        spinning(spins(cpus, &["--no-pin"])),
+        0,
+        "as many workers as CPUs, unpinned"
+    );
     if cpus > 1 {
-        assert_eq!(spins(cpus - 1), vec![true; cpus - 1], "a CPU to spare");
+        assert_eq!(spins(cpus - 1, &[]), vec![true; cpus - 1], "a CPU to spare");
     }
 }
 
@@ -804,20 +816,23 @@ fn policy_of(pid: u32) -> u32 {
 
 /// Starts a long run with `extra` flags and returns what its two workers
 /// were given once it is under way: their CPUs and scheduling policies.
-fn workers_placement(iox: &Iox, extra: &[&str]) -> Vec<(String, u32)> {
+/// The CPUs of the coordinator's main thread (which runs the pool) and,
+/// for each worker, its CPUs and scheduling policy, read during a run.
+fn workers_placement(iox: &Iox, extra: &[&str]) -> (String, Vec<(String, u32)>) {
     let dir = tempfile::tempdir().unwrap();
     let cfg = never_lands(dir.path());
     let mut args = LONG.to_vec();
     args.extend(["--config", &cfg]);
     args.extend_from_slice(extra);
     let (child, workers) = under_way(iox, dir.path(), &args, 5);
+    let coordinator = cpus_of(&child.id().to_string());
     let placement = workers
         .iter()
         .map(|&w| (cpus_of(&w.to_string()), policy_of(w)))
         .collect();
     let out = child.wait_with_output().unwrap();
     assert!(out.status.success(), "{}", stderr(&out));
-    placement
+    (coordinator, placement)
 }
 
 #[test]
@@ -825,8 +840,12 @@ fn spawned_workers_get_a_cpu_each_and_the_batch_class() {
     let _one_at_a_time = serial();
     let iox = Iox::new("placement");
     let everywhere = cpus_of("self");
-    let pinned = workers_placement(&iox, &[]);
-    let free = workers_placement(&iox, &["--no-pin"]);
+    let (coordinator, pinned) = workers_placement(&iox, &[]);
+    let (coordinator_free, free) = workers_placement(&iox, &["--no-pin"]);
+    assert_eq!(
+        coordinator_free, everywhere,
+        "--no-pin pinned the coordinator"
+    );
     for (_, policy) in pinned.iter().chain(&free) {
         assert_eq!(
             *policy, 3,
@@ -850,4 +869,17 @@ fn spawned_workers_get_a_cpu_each_and_the_batch_class() {
         );
     }
     assert_ne!(a, b, "both workers were pinned to CPU {a}");
+    if n == 2 {
+        // A worker on every CPU: the coordinator's thread shares the
+        // second worker's, leaving the first's to it alone.
+        assert!(
+            coordinator == *a || coordinator == *b,
+            "the coordinator runs on {coordinator}, beside neither worker ({a}, {b})"
+        );
+    } else {
+        assert_eq!(
+            coordinator, everywhere,
+            "a CPU to spare: the coordinator is free"
+        );
+    }
 }

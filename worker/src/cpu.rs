@@ -14,22 +14,7 @@ use std::io;
 /// Runs the calling thread, and the threads it starts from now on, on
 /// `cpu` only. Call it first thing in `main` to pin the whole process.
 pub fn pin_to(cpu: usize) -> io::Result<()> {
-    if cpu >= libc::CPU_SETSIZE as usize {
-        return Err(io::Error::new(
-            io::ErrorKind::InvalidInput,
-            format!("CPU {cpu} is beyond the largest CPU number this system supports"),
-        ));
-    }
-    // SAFETY: as above; `cpu` is below CPU_SETSIZE, so CPU_SET stays inside
-    // the set.
-    unsafe {
-        let mut set: libc::cpu_set_t = std::mem::zeroed();
-        libc::CPU_SET(cpu, &mut set);
-        if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
-            return Err(io::Error::last_os_error());
-        }
-    }
-    Ok(())
+    lander_protocol::host::pin_to(cpu).map(|_| ())
 }
 
 /// Puts the calling thread, and the threads it starts from now on, in the

@@ -3,7 +3,7 @@
 //! into chunks, and the answers back into evaluations (writing the guided
 //! pass's actions into the genomes) and training results.
 
-use super::schedule::{chunk_ranges, Chunk};
+use super::schedule::{chunk_ranges, Chunk, Early};
 use super::verify::{self, Check};
 use super::{Pool, Transport};
 use crate::evaluator::{Batch, EvalError, Evaluator, Trainer};
@@ -78,17 +78,24 @@ impl<T: Transport> Evaluator for Pool<T> {
         let mut chunks = Vec::new();
         // For each chunk: its batch, the genomes it covers, their length.
         let mut spans = Vec::new();
+        // Chunks handed out while the rest of their generation was bred.
+        let mut early = Early::default();
         for (b, batch) in batches.iter_mut().enumerate() {
-            // A generation not bred yet is bred here, before its chunks
-            // go out.
-            let genomes = batch.bred_genomes();
-            let length = genomes.first().map_or(0, Vec::len);
-            if genomes.iter().any(|g| g.len() != length) {
-                return Err(EvalError::Ragged);
-            }
-            for range in chunk_ranges(genomes.len(), per_batch, workers) {
+            // A generation not bred yet is bred here, chunk by chunk, each
+            // chunk going out as soon as it is bred: a worker flies it
+            // while the coordinator breeds the next.
+            let unbred = !batch.is_bred();
+            let length = batch.bred_up_to(1).first().map_or(0, Vec::len);
+            for range in chunk_ranges(batch.len(), per_batch, workers) {
+                let genomes = &batch.bred_up_to(range.end)[range.clone()];
+                if genomes.iter().any(|g| g.len() != length) {
+                    return Err(EvalError::Ragged);
+                }
                 chunks.push(chunk_of(batch, range.clone(), length));
                 spans.push((b, range, length, batch.pass));
+                if unbred {
+                    self.hand_early(&chunks, &mut early);
+                }
             }
         }
         // The guided actions go back into the genomes as each answer
@@ -101,8 +108,9 @@ impl<T: Transport> Evaluator for Pool<T> {
             differs: &|i, truth, answer| verify::differs(&chunks[i], truth, answer),
             shares: true,
         };
-        let results = self.run_checked(
+        let results = self.run_checked_after(
             &chunks,
+            &early.sent,
             |i, body| {
                 let (_, range, length, pass) = &spans[i];
                 ChunkResult::decode(body, *pass, range.len(), *length).map_err(|e| e.to_string())
@@ -144,7 +152,7 @@ fn chunk_of(batch: &mut Batch<'_>, range: Range<usize>, length: usize) -> Chunk 
     };
     Chunk {
         header,
-        genes: wire_genes(&batch.bred_genomes()[range], length),
+        genes: wire_genes(&batch.bred_up_to(range.end)[range], length),
         timed: true,
     }
 }

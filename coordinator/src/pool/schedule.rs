@@ -39,6 +39,17 @@ pub(super) fn chunk_ranges(n: usize, parts: usize, workers: usize) -> Vec<Range<
     ranges
 }
 
+/// The chunks a generation handed out while it was bred
+/// ([`Pool::hand_early`]).
+#[derive(Default)]
+pub(super) struct Early {
+    pub sent: Vec<usize>,
+    /// The link to try first for the next one.
+    next: usize,
+    /// The workers woken for theirs.
+    woken: Vec<u64>,
+}
+
 /// One chunk for the pool: its header (the job id is filled in each time
 /// it is sent), its genes, and whether the pool's deadline applies to it.
 pub struct Chunk {
@@ -82,10 +93,24 @@ impl<T: Transport> Pool<T> {
         chunks: &[Chunk],
         decode: impl Fn(usize, &[u8]) -> Result<R, String>,
         check: &Check<'_, R>,
+        finished: impl FnMut(usize, &R),
+    ) -> Result<Vec<R>, EvalError> {
+        self.run_checked_after(chunks, &[], decode, check, finished)
+    }
+
+    /// [`Pool::run_checked`], the chunks `sent` already handed out
+    /// ([`Pool::hand_early`]).
+    pub(super) fn run_checked_after<R>(
+        &mut self,
+        chunks: &[Chunk],
+        sent: &[usize],
+        decode: impl Fn(usize, &[u8]) -> Result<R, String>,
+        check: &Check<'_, R>,
         mut finished: impl FnMut(usize, &R),
     ) -> Result<Vec<R>, EvalError> {
         self.await_first_workers()?;
         let mut progress = Progress::new(chunks.len());
+        progress.todo.retain(|c| !sent.contains(c));
         while !progress.is_finished() {
             if self.opts.stop.asked() {
                 return Err(EvalError::Interrupted);
@@ -368,6 +393,36 @@ impl<T: Transport> Pool<T> {
                     progress.again(chunk);
                 }
                 false
+            }
+        }
+    }
+
+    /// Hands the last of `chunks`, just cut while the rest of its generation
+    /// is still to be bred, to the next worker with room, round-robin, and
+    /// wakes a worker with the first such chunk it gets. Where none has
+    /// room, the chunk waits for the hand-out.
+    pub(super) fn hand_early(&mut self, chunks: &[Chunk], early: &mut Early) {
+        let Some(chunk) = chunks.len().checked_sub(1) else {
+            return;
+        };
+        let links = self.links.len();
+        let Some(i) = (0..links)
+            .map(|k| (early.next + k) % links)
+            .find(|&i| self.links[i].has_room())
+        else {
+            return;
+        };
+        early.next = i + 1;
+        if !self.hand(i, chunks, chunk, &mut VecDeque::new()) {
+            return;
+        }
+        early.sent.push(chunk);
+        let id = self.links[i].id();
+        if !early.woken.contains(&id) {
+            early.woken.push(id);
+            if let Err(e) = self.links[i].notify() {
+                // Its chunks go elsewhere when the broken link is dropped.
+                tracing::warn!("cannot notify worker {id:016x}: {e}");
             }
         }
     }

@@ -1,7 +1,9 @@
-//! Worker processes the coordinator starts itself: spawned (each pinned to
-//! a CPU of its own when there are enough), reaped with `waitpid` (iceoryx2
-//! cannot tell a zombie from a live process) and replaced a bounded number
-//! of times, a replacement taking its predecessor's CPU.
+//! Worker processes the coordinator starts itself: placed ([`Placement`]:
+//! each pinned to a CPU of its own when there are enough, and told to spin
+//! where no other process of the run needs its CPU), spawned, reaped with
+//! `waitpid` (iceoryx2 cannot tell a zombie from a live process) and
+//! replaced a bounded number of times, a replacement taking its
+//! predecessor's CPU.
 
 use crate::evaluator::EvalError;
 use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
@@ -9,11 +11,60 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+/// Where a pool's spawned workers run, where the coordinator's own thread
+/// runs, and which workers may spin before they sleep.
+///
+/// With fewer workers than CPUs, every worker and the coordinator have a
+/// CPU of their own: the workers are pinned one to a CPU and all of them
+/// spin. With as many workers as CPUs, the coordinator's thread is pinned
+/// beside the last worker, which does not spin; every other worker still
+/// has a CPU of its own, and spins. With more workers than CPUs, or
+/// without pinning, nobody is pinned and nobody spins (unless the workers
+/// are fewer than the CPUs).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Placement {
+    /// Each worker's CPU, in the order they are spawned; empty: unpinned.
+    pub cpus: Vec<usize>,
+    /// The CPU the coordinator's thread shares with the last worker.
+    pub coordinator: Option<usize>,
+    /// Every worker has a CPU of its own.
+    spin_all: bool,
+    /// How long a worker with a CPU of its own polls, in µs.
+    spin_us: Option<u128>,
+}
+
+impl Placement {
+    /// `workers` spawned on the `allowed` CPUs, pinned if `pin`, those
+    /// with a CPU of their own polling for `spin` before they sleep.
+    pub fn new(workers: usize, allowed: &[usize], pin: bool, spin: Duration) -> Placement {
+        let pinned = pin && workers > 0 && workers <= allowed.len();
+        let cpus = if pinned {
+            allowed[..workers].to_vec()
+        } else {
+            Vec::new()
+        };
+        Placement {
+            coordinator: (pinned && workers == allowed.len()).then(|| allowed[workers - 1]),
+            cpus,
+            spin_all: workers < allowed.len(),
+            spin_us: (!spin.is_zero()).then_some(spin.as_micros()),
+        }
+    }
+
+    /// The spin budget of a worker pinned to `cpu` (`None`: unpinned), if
+    /// it may spin at all.
+    pub fn spin_us(&self, cpu: Option<usize>) -> Option<u128> {
+        let own = self.spin_all || (cpu.is_some() && cpu != self.coordinator);
+        self.spin_us.filter(|_| own)
+    }
+}
+
 pub struct Children {
     exe: PathBuf,
     run_id: String,
     /// What the transport needs on the worker's command line.
     args: Vec<String>,
+    placement: Placement,
     /// Each live worker.
     procs: Vec<Spawned>,
     /// CPUs no live worker is pinned to, handed out next.
@@ -38,21 +89,21 @@ pub struct Exited {
 }
 
 impl Children {
-    /// Workers of `exe` for run `run_id`, pinned one to each of `cpus` in
-    /// turn (none pinned if `cpus` is empty).
+    /// Workers of `exe` for run `run_id`, placed as `placement` says.
     pub fn new(
         exe: PathBuf,
         run_id: String,
         args: Vec<String>,
         max_respawns: usize,
-        cpus: Vec<usize>,
+        placement: Placement,
     ) -> Children {
-        let mut free_cpus = cpus;
+        let mut free_cpus = placement.cpus.clone();
         free_cpus.reverse();
         Children {
             exe,
             run_id,
             args,
+            placement,
             procs: Vec::new(),
             free_cpus,
             next_id: 1,
@@ -85,6 +136,9 @@ impl Children {
         ]);
         if let Some(cpu) = cpu {
             command.args(["--cpu", &cpu.to_string()]);
+        }
+        if let Some(us) = self.placement.spin_us(cpu) {
+            command.args(["--spin-us", &us.to_string()]);
         }
         let child = command
             .args(&self.args)
@@ -264,7 +318,7 @@ mod tests {
         let exe = dir.path().join("worker.sh");
         std::fs::write(&exe, "#!/bin/sh\nexec sleep 30\n").unwrap();
         std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
-        let mut children = Children::new(exe, "r".into(), Vec::new(), 0, Vec::new());
+        let mut children = Children::new(exe, "r".into(), Vec::new(), 0, Placement::default());
         children.spawn().unwrap();
         children.spawn().unwrap();
         assert_eq!(children.stop_all(&[]), 0, "a worker had to be killed");

@@ -6,9 +6,10 @@
 //! the pool is dropped.
 
 use super::link::overdue;
-use super::spawn::Children;
+use super::spawn::{Children, Placement};
 use super::{iceoryx, IpcPool, Pool, PoolOptions, Transport, WorkerLink};
 use crate::evaluator::EvalError;
+use lander_protocol::host::Affinity;
 use lander_protocol::wire::PROTOCOL_VERSION;
 use lander_telemetry::events::{Cause, Death};
 use lander_telemetry::{Event, Telemetry, WorkerRef};
@@ -34,13 +35,21 @@ impl<T: Transport> Pool<T> {
         opts: PoolOptions,
         telemetry: Telemetry,
     ) -> Result<Pool<T>, EvalError> {
+        let placement = Placement::new(
+            opts.spawn,
+            &lander_protocol::host::allowed_cpus(),
+            opts.pin,
+            opts.spin,
+        );
+        let pinned = placement.coordinator.and_then(pin_this_thread);
         let mut pool = Pool {
+            pinned,
             children: Children::new(
                 opts.worker_exe.clone(),
                 opts.run_id.clone(),
-                worker_args(&transport, &opts),
+                worker_args(&transport),
                 opts.max_respawns,
-                cpus_for(&opts),
+                placement.clone(),
             ),
             transport,
             links: Vec::new(),
@@ -316,55 +325,78 @@ impl<T: Transport> Drop for Pool<T> {
             tracing::warn!("killed {stuck} worker(s) that did not leave when the run ended");
         }
         self.transport.close();
+        // The thread goes on without the pool (`lander bench` starts
+        // in-process pools after it): it may run anywhere again.
+        if let Some(affinity) = self.pinned.take() {
+            if let Err(e) = affinity.restore() {
+                tracing::warn!("cannot unpin the coordinator: {e}");
+            }
+        }
     }
 }
 
-/// What spawned workers are told on their command line: the transport's
-/// arguments, the coordinator's log format (they share its stderr), and a
-/// spin budget where every worker and the coordinator have a CPU of their
-/// own, so that a spinning worker takes a CPU from no other process of the
-/// run.
-fn worker_args<T: Transport>(transport: &T, opts: &PoolOptions) -> Vec<String> {
+/// Pins the calling thread, which runs the pool, to `cpu` beside the
+/// worker there, and returns the CPUs it ran on before (`None`, with a
+/// warning, if it cannot be pinned). Rayon's global pool is started first,
+/// so that its threads, which breed an experiment's trials, stay free to
+/// run anywhere.
+fn pin_this_thread(cpu: usize) -> Option<Affinity> {
+    rayon::broadcast(|_| ());
+    lander_protocol::host::pin_to(cpu)
+        .inspect_err(|e| tracing::warn!("cannot pin the coordinator to CPU {cpu}: {e}"))
+        .ok()
+}
+
+/// What every spawned worker is told on its command line: the transport's
+/// arguments and the coordinator's log format (they share its stderr).
+/// Its CPU and spin budget are its own (`Placement`).
+fn worker_args<T: Transport>(transport: &T) -> Vec<String> {
     let mut args = transport.worker_args();
     if lander_telemetry::log::format() == lander_telemetry::log::LogFormat::Json {
         args.extend(["--log-format".to_string(), "json".to_string()]);
     }
-    let cpus = lander_protocol::host::allowed_cpus().len();
-    if let Some(us) = spin_us(opts.spin, opts.spawn, cpus) {
-        args.extend(["--spin-us".to_string(), us.to_string()]);
-    }
     args
-}
-
-/// The spin budget for `workers` spawned workers on `cpus` CPUs, if they
-/// may spin at all: only when each of them and the coordinator has a CPU.
-fn spin_us(spin: Duration, workers: usize, cpus: usize) -> Option<u128> {
-    (!spin.is_zero() && workers < cpus).then_some(spin.as_micros())
-}
-
-/// The CPUs to pin `opts.spawn` workers to: one each, or none at all when
-/// pinning is off or there are fewer CPUs than workers.
-fn cpus_for(opts: &PoolOptions) -> Vec<usize> {
-    let cpus = lander_protocol::host::allowed_cpus();
-    if !opts.pin || opts.spawn == 0 || opts.spawn > cpus.len() {
-        return Vec::new();
-    }
-    cpus[..opts.spawn].to_vec()
 }
 
 #[cfg(test)]
 mod tests {
-    use super::spin_us;
+    use super::Placement;
     use std::time::Duration;
 
+    const MS: Duration = Duration::from_millis(1);
+
+    /// The spin budgets of `workers` workers on CPUs 0 to `cpus - 1`.
+    fn spins(workers: usize, cpus: usize, pin: bool, spin: Duration) -> Vec<Option<u128>> {
+        let allowed: Vec<usize> = (0..cpus).collect();
+        let p = Placement::new(workers, &allowed, pin, spin);
+        (0..workers)
+            .map(|w| p.spin_us(p.cpus.get(w).copied()))
+            .collect()
+    }
+
     #[test]
-    fn workers_spin_only_where_they_and_the_coordinator_have_a_cpu_each() {
-        let ms = Duration::from_millis(1);
-        // 1, 2 and 3 workers on 2 CPUs: only the one worker spins.
-        assert_eq!(spin_us(ms, 1, 2), Some(1000));
-        assert_eq!(spin_us(ms, 2, 2), None);
-        assert_eq!(spin_us(ms, 3, 2), None);
-        assert_eq!(spin_us(ms, 7, 8), Some(1000));
-        assert_eq!(spin_us(Duration::ZERO, 1, 8), None);
+    fn workers_spin_only_where_no_other_process_of_the_run_needs_their_cpu() {
+        // 1, 2 and 3 workers on 2 CPUs: with 1 it and the coordinator have
+        // a CPU each; with 2 the coordinator shares the second worker's;
+        // with 3 nobody is pinned.
+        assert_eq!(spins(1, 2, true, MS), [Some(1000)]);
+        assert_eq!(spins(2, 2, true, MS), [Some(1000), None]);
+        assert_eq!(spins(3, 2, true, MS), [None, None, None]);
+        assert_eq!(spins(7, 8, true, MS), vec![Some(1000); 7]);
+        assert_eq!(spins(8, 8, true, MS).iter().flatten().count(), 7);
+        // Unpinned, a worker has a CPU of its own only with CPUs to spare.
+        assert_eq!(spins(2, 2, false, MS), [None, None]);
+        assert_eq!(spins(1, 2, false, MS), [Some(1000)]);
+        assert_eq!(spins(1, 8, true, Duration::ZERO), [None]);
+    }
+
+    #[test]
+    fn the_coordinator_shares_the_last_workers_cpu_only_with_a_worker_on_every_cpu() {
+        let on = |workers: usize, pin: bool| Placement::new(workers, &[3, 5], pin, MS).coordinator;
+        assert_eq!(on(2, true), Some(5));
+        assert_eq!(on(1, true), None, "a CPU to spare");
+        assert_eq!(on(3, true), None, "more workers than CPUs: nobody pinned");
+        assert_eq!(on(2, false), None, "--no-pin");
+        assert_eq!(Placement::new(2, &[3, 5], true, MS).cpus, [3, 5]);
     }
 }
