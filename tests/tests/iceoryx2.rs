@@ -756,10 +756,11 @@ fn qlearning_over_workers_matches_in_process_even_when_its_worker_dies() {
     assert_eq!(over.0, expected);
     assert!(over.1 == calm_log, "episodes.jsonl differs over workers");
 
-    // One worker holds the trial; kill it while it learns.
+    // One worker holds the trial (the coordinator, sharing, takes only
+    // what finds no room at a worker); kill the worker while it learns.
     let dir = tempfile::tempdir().unwrap();
     let mut a = args.to_vec();
-    a.extend(["--workers", "1"]);
+    a.extend(["--workers", "1", "--coordinator-share", "always"]);
     let child = start(&iox, dir.path(), &a);
     let mut workers = Vec::new();
     assert!(wait_until(20, || {

@@ -336,12 +336,13 @@ impl<T: Transport> Pool<T> {
     }
 
     /// With [`PoolOptions::share`](super::PoolOptions::share) and a `check`
-    /// that shares, flies one chunk here instead of sleeping: the first still queued
-    /// (every worker's queue being full), or else the last queued at the
-    /// worker with the longest backlog, taken back as an idle worker takes
-    /// it. Returns whether it flew one. Between chunks the coordinator
-    /// collects answers and refills the workers, so that they never wait
-    /// on it for longer than one small chunk.
+    /// that shares, flies one chunk here instead of sleeping, once a worker
+    /// has joined: the first still queued (every worker's queue being
+    /// full), or else the last queued at the worker with the longest
+    /// backlog, taken back as an idle worker takes it. Returns whether it
+    /// flew one. Between chunks the coordinator collects answers and
+    /// refills the workers, so that they never wait on it for longer than
+    /// one chunk.
     fn fly_a_share<R>(
         &mut self,
         chunks: &[Chunk],
@@ -349,7 +350,10 @@ impl<T: Transport> Pool<T> {
         check: &Check<'_, R>,
         finished: &mut impl FnMut(usize, &R),
     ) -> bool {
-        if !self.opts.share || !check.shares {
+        // Without a worker yet the chunks wait for workers, not for room:
+        // a run's one Q(λ) trial goes to its worker, not to the
+        // coordinator that started before it.
+        if !self.opts.share || !check.shares || self.links.is_empty() {
             return false;
         }
         let n = chunks.len();
