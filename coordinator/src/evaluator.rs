@@ -177,8 +177,9 @@ pub trait Evaluator {
     /// Flies several batches at once, such as the current generations of
     /// several trials, so that small generations still fill every core.
     /// A batch may not be bred yet: its genomes are read through
-    /// [`Batch::bred_genomes`] (or flown by [`Batch::evaluate_here`]),
-    /// which breeds them, so that the trial finds them in place.
+    /// [`Batch::bred_genomes`] or [`Batch::bred_up_to`] (or flown by
+    /// [`Batch::evaluate_here`]), which breed them, so that the trial finds
+    /// them in place.
     fn evaluate_many(&mut self, batches: Vec<Batch<'_>>)
         -> Result<Vec<Vec<Evaluation>>, EvalError>;
 

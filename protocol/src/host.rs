@@ -36,6 +36,31 @@ pub fn allowed_cpus() -> Vec<usize> {
 #[derive(Clone, Copy)]
 pub struct Affinity(libc::cpu_set_t);
 
+/// The calling thread pinned to one CPU until this is dropped, when it may
+/// run where it ran before. Not `Send`: it must be dropped on the thread
+/// it pinned.
+pub struct Pinned {
+    before: Affinity,
+    _on_this_thread: std::marker::PhantomData<*const ()>,
+}
+
+impl Pinned {
+    /// Pins the calling thread to `cpu` (see [`pin_to`]) until dropped.
+    pub fn here(cpu: usize) -> std::io::Result<Pinned> {
+        Ok(Pinned {
+            before: pin_to(cpu)?,
+            _on_this_thread: std::marker::PhantomData,
+        })
+    }
+}
+
+impl Drop for Pinned {
+    fn drop(&mut self) {
+        // Nothing to do about a failure: the thread stays where it was.
+        let _ = self.before.restore();
+    }
+}
+
 impl Affinity {
     /// Lets the calling thread run on these CPUs again.
     pub fn restore(&self) -> std::io::Result<()> {
@@ -145,6 +170,11 @@ mod tests {
             assert_eq!(child, [last]);
             affinity.restore().unwrap();
             assert_eq!(allowed_cpus(), before);
+            {
+                let _pinned = Pinned::here(last).unwrap();
+                assert_eq!(allowed_cpus(), [last]);
+            }
+            assert_eq!(allowed_cpus(), before, "the guard restores on drop");
             assert!(pin_to(libc::CPU_SETSIZE as usize).is_err());
         })
         .join()

@@ -208,13 +208,30 @@ fn results_do_not_depend_on_workers_or_trials_in_flight() {
         workers.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
+    // One worker and a coordinator flying a share: its three Q(λ) trials
+    // fill the worker's queue, and the coordinator takes the last back.
+    let shared = dir.path().join("shared");
+    let out = iox.lander(&[
+        "experiment",
+        &file,
+        "--workers",
+        "1",
+        "--coordinator-share",
+        "always",
+        "--out",
+        shared.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
     let expected = results_of(&inproc);
     assert_eq!(results_of(&serial), expected);
     assert_eq!(results_of(&workers), expected);
-    assert_eq!(
-        fs::read(inproc.join("generations.jsonl")).unwrap(),
-        fs::read(workers.join("generations.jsonl")).unwrap()
-    );
+    assert_eq!(results_of(&shared), expected);
+    for run in [&workers, &shared] {
+        assert_eq!(
+            fs::read(inproc.join("generations.jsonl")).unwrap(),
+            fs::read(run.join("generations.jsonl")).unwrap()
+        );
+    }
 }
 
 #[test]

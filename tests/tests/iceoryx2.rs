@@ -871,8 +871,8 @@ fn spawned_workers_get_a_cpu_each_and_the_batch_class() {
     }
     assert_ne!(a, b, "both workers were pinned to CPU {a}");
     if n == 2 {
-        // A worker on every CPU: the coordinator's thread shares the
-        // second worker's, leaving the first's to it alone.
+        // A worker on every CPU: the coordinator's thread shares one
+        // worker's CPU (the last spawned), leaving the other's to it alone.
         assert!(
             coordinator == *a || coordinator == *b,
             "the coordinator runs on {coordinator}, beside neither worker ({a}, {b})"

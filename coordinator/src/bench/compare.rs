@@ -82,6 +82,7 @@ pub struct Report {
 pub fn run(work: &Workload, modes: &mut [Mode], plan: &Plan) -> Result<Report, EvalError> {
     if !work.steps.is_empty() {
         for m in modes.iter_mut() {
+            let _placed = m.place_thread();
             m.step(work, 0)?;
             m.reset();
         }
@@ -90,6 +91,8 @@ pub fn run(work: &Workload, modes: &mut [Mode], plan: &Plan) -> Result<Report, E
     for round in 0..plan.rounds {
         for i in 0..k {
             let mode = &mut modes[(i + round) % k];
+            // Placed as a run's loop is, for the whole block.
+            let _placed = mode.place_thread();
             for g in 0..work.steps.len() {
                 mode.step(work, g)?;
             }

@@ -9,7 +9,7 @@ use crate::ga::Genome;
 use crate::pool::{ChunkTiming, IpcPool, ZenohPool};
 use crate::trial::offspring;
 use lander_model::Evaluation;
-use lander_protocol::host::{process_cpu_time, thread_cpu_time};
+use lander_protocol::host::{process_cpu_time, thread_cpu_time, Pinned};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::hash::{DefaultHasher, Hash, Hasher};
@@ -79,6 +79,13 @@ pub trait Measured: Evaluator {
     fn take_timings(&mut self) -> Vec<ChunkTiming> {
         Vec::new()
     }
+
+    /// The calling thread placed as a run places it while it flies
+    /// ([`Pool::place_thread`](crate::pool::Pool::place_thread)), until
+    /// the guard is dropped.
+    fn place_thread(&self) -> Option<Pinned> {
+        None
+    }
 }
 
 impl Measured for InProcess {
@@ -99,6 +106,10 @@ impl Measured for IpcPool {
     fn take_timings(&mut self) -> Vec<ChunkTiming> {
         IpcPool::take_timings(self)
     }
+
+    fn place_thread(&self) -> Option<Pinned> {
+        IpcPool::place_thread(self)
+    }
 }
 
 impl Measured for ZenohPool {
@@ -112,6 +123,10 @@ impl Measured for ZenohPool {
 
     fn take_timings(&mut self) -> Vec<ChunkTiming> {
         ZenohPool::take_timings(self)
+    }
+
+    fn place_thread(&self) -> Option<Pinned> {
+        ZenohPool::place_thread(self)
     }
 }
 
@@ -172,6 +187,12 @@ impl Mode {
     /// The name the report gives it.
     pub fn name(&self) -> String {
         self.kind.name()
+    }
+
+    /// The calling thread placed as a run places it while this mode flies
+    /// ([`Measured::place_thread`]), until the guard is dropped.
+    pub fn place_thread(&self) -> Option<Pinned> {
+        self.evaluator.place_thread()
     }
 
     /// Evaluates step `g` of the workload, breeding what a run breeds.

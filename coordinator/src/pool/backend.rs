@@ -5,7 +5,7 @@
 
 use super::schedule::{chunk_ranges, Chunk, Early};
 use super::verify::{self, Check};
-use super::{Pool, Transport};
+use super::{Pool, Transport, WorkerLink};
 use crate::evaluator::{Batch, EvalError, Evaluator, Trainer};
 use lander_model::learn::run_training;
 use lander_model::{Action, Evaluation, TrainJob, TrainResult};
@@ -58,7 +58,10 @@ impl<T: Transport> Trainer for Pool<T> {
 }
 
 impl<T: Transport> Evaluator for Pool<T> {
+    /// `work` runs on this thread, placed beside a worker where there is
+    /// a worker on every CPU ([`Pool::place_thread`]).
     fn drive(&mut self, work: &mut (dyn FnMut(&mut dyn Evaluator) + Send)) {
+        let _placed = self.place_thread();
         work(self)
     }
 
@@ -89,6 +92,10 @@ impl<T: Transport> Evaluator for Pool<T> {
             for range in chunk_ranges(batch.len(), per_batch, workers) {
                 let genomes = &batch.bred_up_to(range.end)[range.clone()];
                 if genomes.iter().any(|g| g.len() != length) {
+                    // Chunks sent already are not waited for.
+                    for link in &mut self.links {
+                        link.abandon();
+                    }
                     return Err(EvalError::Ragged);
                 }
                 chunks.push(chunk_of(batch, range.clone(), length));

@@ -128,9 +128,9 @@ pub struct Pool<T: Transport> {
     taken_back: u64,
     /// Chunks the coordinator flew itself (`PoolOptions::share`).
     flown_here: u64,
-    /// The CPUs this thread ran on before the pool pinned it beside a
-    /// worker (`Placement`), restored when the pool is dropped.
-    pinned: Option<lander_protocol::host::Affinity>,
+    /// The CPU the thread running the pool's loop shares with the last
+    /// worker, where there is a worker on every CPU (`Placement`).
+    beside: Option<usize>,
     told_waiting: bool,
     /// Kept only when asked for, so long runs do not accumulate them.
     timings: Option<Vec<ChunkTiming>>,

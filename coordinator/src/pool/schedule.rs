@@ -173,6 +173,12 @@ impl<T: Transport> Pool<T> {
                 self.sleep()?;
             }
         }
+        // An answer no longer waited for (a check of an answer settled
+        // otherwise, as when its worker was refused and its chunk flown
+        // again) must not be read as one of the next generation's.
+        for link in &mut self.links {
+            link.abandon();
+        }
         Ok(progress.into_results())
     }
 
@@ -376,6 +382,9 @@ impl<T: Transport> Pool<T> {
                     return false;
                 }
                 self.taken_back += 1;
+                if let Some(m) = self.telemetry.metrics() {
+                    m.chunks_taken_back.inc();
+                }
                 (i, false)
             }
         };

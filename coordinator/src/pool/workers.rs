@@ -9,7 +9,7 @@ use super::link::overdue;
 use super::spawn::{Children, Placement};
 use super::{iceoryx, IpcPool, Pool, PoolOptions, Transport, WorkerLink};
 use crate::evaluator::EvalError;
-use lander_protocol::host::Affinity;
+use lander_protocol::host::Pinned;
 use lander_protocol::wire::PROTOCOL_VERSION;
 use lander_telemetry::events::{Cause, Death};
 use lander_telemetry::{Event, Telemetry, WorkerRef};
@@ -41,9 +41,8 @@ impl<T: Transport> Pool<T> {
             opts.pin,
             opts.spin,
         );
-        let pinned = placement.coordinator.and_then(pin_this_thread);
         let mut pool = Pool {
-            pinned,
+            beside: placement.coordinator,
             children: Children::new(
                 opts.worker_exe.clone(),
                 opts.run_id.clone(),
@@ -325,26 +324,24 @@ impl<T: Transport> Drop for Pool<T> {
             tracing::warn!("killed {stuck} worker(s) that did not leave when the run ended");
         }
         self.transport.close();
-        // The thread goes on without the pool (`lander bench` starts
-        // in-process pools after it): it may run anywhere again.
-        if let Some(affinity) = self.pinned.take() {
-            if let Err(e) = affinity.restore() {
-                tracing::warn!("cannot unpin the coordinator: {e}");
-            }
-        }
     }
 }
 
-/// Pins the calling thread, which runs the pool, to `cpu` beside the
-/// worker there, and returns the CPUs it ran on before (`None`, with a
-/// warning, if it cannot be pinned). Rayon's global pool is started first,
-/// so that its threads, which breed an experiment's trials, stay free to
-/// run anywhere.
-fn pin_this_thread(cpu: usize) -> Option<Affinity> {
-    rayon::broadcast(|_| ());
-    lander_protocol::host::pin_to(cpu)
-        .inspect_err(|e| tracing::warn!("cannot pin the coordinator to CPU {cpu}: {e}"))
-        .ok()
+impl<T: Transport> Pool<T> {
+    /// Pins the calling thread, which is to run the pool's loop, beside
+    /// the last worker where there is a worker on every CPU (`Placement`),
+    /// until the guard is dropped; `None` elsewhere, or with a warning if
+    /// it cannot be pinned. Scoped to the loop, so that the threads and
+    /// pools the caller starts before or after it run anywhere; rayon's
+    /// global pool, which breeds an experiment's trials inside the loop,
+    /// is started first for the same reason.
+    pub fn place_thread(&self) -> Option<Pinned> {
+        let cpu = self.beside?;
+        rayon::broadcast(|_| ());
+        Pinned::here(cpu)
+            .inspect_err(|e| tracing::warn!("cannot pin the coordinator to CPU {cpu}: {e}"))
+            .ok()
+    }
 }
 
 /// What every spawned worker is told on its command line: the transport's

@@ -39,6 +39,10 @@ fn run_all_checked(pool: &mut Pool<Nowhere>) -> (Vec<usize>, usize) {
     let results = pool
         .run_checked(&no_chunks(CHUNKS), decode, &check, |_, _| {})
         .unwrap();
+    assert!(
+        pool.links.iter().all(|l| l.chunks.is_empty()),
+        "a generation leaves nothing in flight"
+    );
     (results, flown_here.get())
 }
 

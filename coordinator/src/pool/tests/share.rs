@@ -40,6 +40,10 @@ fn run(pool: &mut Pool<Nowhere>, chunks: &[crate::pool::Chunk]) -> (Vec<usize>, 
     };
     let decode = |c: usize, body: &[u8]| Ok(10 * c + usize::from(body[0]));
     let results = pool.run_checked(chunks, decode, &check, |_, _| {}).unwrap();
+    assert!(
+        pool.links.iter().all(|l| l.chunks.is_empty()),
+        "a generation leaves nothing in flight"
+    );
     (results, here.into_inner())
 }
 
@@ -81,6 +85,8 @@ fn without_a_share_every_chunk_goes_to_the_workers() {
     assert_eq!(results, expected);
 }
 
+/// Whatever the job (`Pool::train` shares its Q(λ) trials through
+/// `Check::sharing`; `tests/tests/experiment.rs` trains one here).
 #[test]
 fn queued_training_jobs_are_shared_too() {
     let mut pool = one_worker(true);
