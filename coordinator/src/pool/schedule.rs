@@ -320,25 +320,32 @@ impl<T: Transport> Pool<T> {
             if self.links[idle].in_flight() > 0 || !self.links[idle].has_room() {
                 continue;
             }
-            // Two or more in flight: one being flown, the last one queued.
-            let backlog = self
-                .links
-                .iter_mut()
-                .filter(|l| l.in_flight() >= 2)
-                .max_by_key(|l| l.in_flight());
-            let Some(chunk) = backlog.and_then(|l| l.take_back()) else {
+            let Some(chunk) = self.take_back_from_backlog() else {
                 break;
             };
-            self.taken_back += 1;
-            if let Some(m) = self.telemetry.metrics() {
-                m.chunks_taken_back.inc();
-            }
             if progress.checked_worker(chunk) == Some(self.links[idle].id()) {
                 progress.todo.push_back(chunk);
                 break;
             }
             self.hand(idle, chunks, chunk, &mut progress.todo);
         }
+    }
+
+    /// Takes back the last chunk queued at the worker with the longest
+    /// backlog, two or more in flight (one being flown, the last queued),
+    /// and counts it; `None` where no worker has one to give.
+    fn take_back_from_backlog(&mut self) -> Option<usize> {
+        let chunk = self
+            .links
+            .iter_mut()
+            .filter(|l| l.in_flight() >= 2)
+            .max_by_key(|l| l.in_flight())
+            .and_then(|l| l.take_back())?;
+        self.taken_back += 1;
+        if let Some(m) = self.telemetry.metrics() {
+            m.chunks_taken_back.inc();
+        }
+        Some(chunk)
     }
 
     /// With [`PoolOptions::share`](super::PoolOptions::share) and a `check`
@@ -368,22 +375,13 @@ impl<T: Transport> Pool<T> {
             Some(&i) if flies_here(i) => (i, true),
             Some(_) => return false,
             None => {
-                let backlog = self
-                    .links
-                    .iter_mut()
-                    .filter(|l| l.in_flight() >= 2)
-                    .max_by_key(|l| l.in_flight());
-                let Some(i) = backlog.and_then(|l| l.take_back()) else {
+                let Some(i) = self.take_back_from_backlog() else {
                     return false;
                 };
                 if !flies_here(i) {
                     // A check: it goes out again with the next hand-out.
                     progress.todo.push_back(i);
                     return false;
-                }
-                self.taken_back += 1;
-                if let Some(m) = self.telemetry.metrics() {
-                    m.chunks_taken_back.inc();
                 }
                 (i, false)
             }
