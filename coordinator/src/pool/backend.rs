@@ -73,6 +73,8 @@ impl<T: Transport> Evaluator for Pool<T> {
         &mut self,
         mut batches: Vec<Batch<'_>>,
     ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
+        // Before any chunk goes out early, as before the hand-out.
+        self.await_first_workers()?;
         // A coordinator that flies a share counts as one more worker.
         let workers = self.links.len().max(self.opts.spawn).max(1) + usize::from(self.opts.share);
         // About `chunks_per_worker` chunks per worker in all, however many
