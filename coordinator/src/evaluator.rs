@@ -81,10 +81,7 @@ impl<'a> Batch<'a> {
 
     /// The genomes, bred first if they are still to be bred.
     pub fn bred_genomes(&mut self) -> &mut [Genome] {
-        if let Some(offspring) = self.offspring.take() {
-            self.genomes.extend(offspring);
-        }
-        self.genomes
+        self.bred_up_to(self.len())
     }
 
     /// Whether every genome is bred.

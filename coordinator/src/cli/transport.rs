@@ -7,7 +7,7 @@ use anyhow::Context;
 use clap::{Args, ValueEnum};
 use lander_coordinator::evaluator::{Backend, InProcess};
 use lander_coordinator::pool::zenoh::Zenoh;
-use lander_coordinator::pool::{IpcPool, Pool, PoolOptions, DEPTH};
+use lander_coordinator::pool::{cpu_to_spare, IpcPool, Pool, PoolOptions, DEPTH};
 use lander_coordinator::stop::Stop;
 use lander_protocol::iox::{check_run_id, MAX_WORKERS};
 use lander_protocol::net::{coordinator_config, strangers_warning, NetOptions};
@@ -43,7 +43,7 @@ impl CoordinatorShare {
             CoordinatorShare::Always => true,
             CoordinatorShare::Never => false,
             CoordinatorShare::Auto => {
-                spawned > 0 && spawned < lander_protocol::host::allowed_cpus().len()
+                spawned > 0 && cpu_to_spare(spawned, lander_protocol::host::allowed_cpus().len())
             }
         }
     }

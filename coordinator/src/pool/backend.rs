@@ -5,7 +5,7 @@
 
 use super::schedule::{chunk_ranges, Chunk, Early};
 use super::verify::{self, Check};
-use super::{Pool, Transport, WorkerLink};
+use super::{Pool, Transport};
 use crate::evaluator::{Batch, EvalError, Evaluator, Trainer};
 use lander_model::learn::run_training;
 use lander_model::{Action, Evaluation, TrainJob, TrainResult};
@@ -95,9 +95,7 @@ impl<T: Transport> Evaluator for Pool<T> {
                 let genomes = &batch.bred_up_to(range.end)[range.clone()];
                 if genomes.iter().any(|g| g.len() != length) {
                     // Chunks sent already are not waited for.
-                    for link in &mut self.links {
-                        link.abandon();
-                    }
+                    self.abandon_in_flight();
                     return Err(EvalError::Ragged);
                 }
                 chunks.push(chunk_of(batch, range.clone(), length));

@@ -56,7 +56,7 @@ mod tests;
 
 pub use link::{Answer, Arrival, Transport, WorkerLink};
 pub use schedule::Chunk;
-pub use spawn::{kill_worker_child, worker_children};
+pub use spawn::{cpu_to_spare, kill_worker_child, worker_children};
 pub use timing::ChunkTiming;
 
 use crate::stop::Stop;

@@ -176,10 +176,16 @@ impl<T: Transport> Pool<T> {
         // An answer no longer waited for (a check of an answer settled
         // otherwise, as when its worker was refused and its chunk flown
         // again) must not be read as one of the next generation's.
+        self.abandon_in_flight();
+        Ok(progress.into_results())
+    }
+
+    /// Gives up on every chunk still in flight, at a generation's end: an
+    /// answer to one is then never read.
+    pub(super) fn abandon_in_flight(&mut self) {
         for link in &mut self.links {
             link.abandon();
         }
-        Ok(progress.into_results())
     }
 
     /// Hands out what waits: checks to workers other than the one they

@@ -46,7 +46,7 @@ impl Placement {
         Placement {
             coordinator: (pinned && workers == allowed.len()).then(|| allowed[workers - 1]),
             cpus,
-            spin_all: workers < allowed.len(),
+            spin_all: cpu_to_spare(workers, allowed.len()),
             spin_us: (!spin.is_zero()).then_some(spin.as_micros()),
         }
     }
@@ -57,6 +57,13 @@ impl Placement {
         let own = self.spin_all || (cpu.is_some() && cpu != self.coordinator);
         self.spin_us.filter(|_| own)
     }
+}
+
+/// Whether `workers` spawned workers on `cpus` CPUs leave one for the
+/// coordinator: the rule by which every worker spins and, by default, the
+/// coordinator flies a share (`--coordinator-share auto`).
+pub fn cpu_to_spare(workers: usize, cpus: usize) -> bool {
+    workers < cpus
 }
 
 pub struct Children {
