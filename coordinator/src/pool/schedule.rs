@@ -120,6 +120,12 @@ impl<T: Transport> Pool<T> {
             let (fresh, malformed) = self.collect(&mut progress);
             let todo = &mut progress.todo;
             self.drop_links(todo, |l| malformed.contains(&l.id()), Cause::Refused);
+            // A killed worker's connection closes as its process exits: a
+            // link found broken since the look above is looked for among
+            // the exits first, so that an exit is told as one.
+            if self.links.iter().any(|l| l.is_broken()) {
+                self.reap(todo)?;
+            }
             self.drop_links(todo, |l| l.is_broken(), Cause::Disconnected);
             // Workers refused in this pass: their remaining answers are
             // not read.
