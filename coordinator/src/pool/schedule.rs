@@ -13,6 +13,12 @@ use lander_telemetry::events::Cause;
 use lander_telemetry::Event;
 use std::collections::VecDeque;
 use std::ops::Range;
+use std::time::Duration;
+
+/// How long a spawned worker whose link broke is given to exit before it
+/// is told as disconnected: a killed process's sockets close a moment
+/// before it can be reaped.
+const EXIT_GRACE: Duration = Duration::from_millis(50);
 
 /// Splits `n` genomes into about `parts` contiguous chunks, largest first,
 /// for `workers` workers. The chunks are dealt round-robin, so each round of
@@ -120,10 +126,18 @@ impl<T: Transport> Pool<T> {
             let (fresh, malformed) = self.collect(&mut progress);
             let todo = &mut progress.todo;
             self.drop_links(todo, |l| malformed.contains(&l.id()), Cause::Refused);
-            // A killed worker's connection closes as its process exits: a
-            // link found broken since the look above is looked for among
-            // the exits first, so that an exit is told as one.
-            if self.links.iter().any(|l| l.is_broken()) {
+            // A killed worker's connection closes as its process exits, a
+            // moment before the process can be reaped: a spawned worker
+            // whose link broke is given that moment, and the exits are
+            // looked for again, so that an exit is told as one.
+            let broken: Vec<u32> = self
+                .links
+                .iter()
+                .filter(|l| l.is_broken())
+                .map(|l| l.pid())
+                .collect();
+            if !broken.is_empty() {
+                self.children.await_exit(&broken, EXIT_GRACE);
                 self.reap(todo)?;
             }
             self.drop_links(todo, |l| l.is_broken(), Cause::Disconnected);

@@ -195,6 +195,24 @@ impl Children {
         gone
     }
 
+    /// Waits at most `grace` for the spawned workers among `pids` to exit,
+    /// looking every millisecond; the next `exited` reaps those that did.
+    /// Pids not spawned here are not waited for.
+    pub fn await_exit(&mut self, pids: &[u32], grace: Duration) {
+        let until = Instant::now() + grace;
+        loop {
+            // `try_wait` keeps a status it found, for `exited` to see.
+            let running = self
+                .procs
+                .iter_mut()
+                .any(|p| pids.contains(&p.child.id()) && matches!(p.child.try_wait(), Ok(None)));
+            if !running || Instant::now() >= until {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
     /// Kills a hung worker; the next `exited` reaps it.
     pub fn kill(&mut self, pid: u32) {
         if let Some(p) = self.procs.iter_mut().find(|p| p.child.id() == pid) {
