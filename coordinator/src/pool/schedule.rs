@@ -378,8 +378,8 @@ impl<T: Transport> Pool<T> {
     /// that shares, flies one chunk here instead of sleeping, once a worker
     /// has joined: the first still queued (every worker's queue being
     /// full), or else the last queued at the worker with the longest
-    /// backlog, taken back as an idle worker takes it. Returns whether it
-    /// flew one. Between chunks the coordinator collects answers and
+    /// backlog, taken back as an idle worker takes it (a check taken back
+    /// is decided here). Returns whether it flew one. Between chunks the coordinator collects answers and
     /// refills the workers, so that they never wait on it for longer than
     /// one chunk.
     fn fly_a_share<R>(
@@ -405,9 +405,15 @@ impl<T: Transport> Pool<T> {
                     return false;
                 };
                 if !flies_here(i) {
-                    // A check: it goes out again with the next hand-out.
-                    progress.todo.push_back(i);
-                    return false;
+                    // A check, decided here as one with no other worker
+                    // to go to is: sent out again, it could come back.
+                    let (c, _) = progress.subject(i);
+                    if let Some(held) = progress.release(c) {
+                        let verdict = self.decide(check, c, held, None);
+                        self.apply(progress, c, verdict, &mut Vec::new(), finished);
+                        self.drop_links(&mut progress.todo, |l| l.is_broken(), Cause::Refused);
+                    }
+                    return true;
                 }
                 (i, false)
             }

@@ -159,7 +159,7 @@ impl<T: Transport> Pool<T> {
 
     /// Flies chunk `c` here and judges the `held` answer, and the
     /// `checker`'s where there is one, against it.
-    fn decide<R>(
+    pub(super) fn decide<R>(
         &self,
         check: &Check<'_, R>,
         c: usize,

@@ -2,10 +2,11 @@
 //! between answers (evaluations and Q(λ) trials alike), and takes one back
 //! from a worker's backlog once nothing waits, rather than sleeping.
 
-use super::fake::{no_chunks, Nowhere, Recorder};
+use super::fake::{assert_refused_alone, no_chunks, recorded, Nowhere, Recorder};
 use crate::pool::verify::Check;
 use crate::pool::{Pool, PoolOptions};
 use lander_protocol::wire::KIND_TRAIN;
+use lander_telemetry::Telemetry;
 use std::cell::RefCell;
 
 const CHUNKS: usize = 12;
@@ -112,4 +113,83 @@ fn chunks_the_coordinator_cannot_fly_are_left_to_the_workers() {
     assert_eq!(pool.flown_here(), 0);
     let expected: Vec<usize> = (0..CHUNKS).map(|c| 10 * c + 1).collect();
     assert_eq!(results, expected);
+}
+
+/// Runs `CHUNKS` chunks over links answering chunk `c` with `10c + lie`,
+/// every answer checked, with the coordinator's share; returns the
+/// results and the chunks flown here.
+fn run_checked_sharing(pool: &mut Pool<Nowhere>) -> (Vec<usize>, Vec<usize>) {
+    let here = RefCell::new(Vec::new());
+    let check = Check {
+        due: &|_, _| true,
+        here: &|c| {
+            here.borrow_mut().push(c);
+            Ok(10 * c)
+        },
+        differs: &|c, a: &usize, b: &usize| (a != b).then(|| format!("its answer to chunk {c}")),
+        shares: true,
+    };
+    let decode = |c: usize, body: &[u8]| Ok(10 * c + usize::from(body[0]));
+    let results = pool
+        .run_checked(&no_chunks(CHUNKS), decode, &check, |_, _| {})
+        .unwrap();
+    (results, here.into_inner())
+}
+
+fn checked_workers(lies: &[(u64, u8)], telemetry: Telemetry) -> Pool<Nowhere> {
+    let opts = PoolOptions {
+        share: true,
+        ..super::fake::options()
+    };
+    let mut pool = Pool::with_transport(Nowhere, opts, telemetry).unwrap();
+    pool.links = lies
+        .iter()
+        .map(|&(id, lie)| Recorder {
+            answer: Some(vec![lie]),
+            ..Recorder::holding(id, Vec::new())
+        })
+        .collect();
+    pool
+}
+
+/// With `--verify`, the backlog taken back may be a check (of another
+/// worker's held answer): it is decided here, as a check with no other
+/// worker to go to is, rather than sent out once more.
+#[test]
+fn a_check_taken_back_for_the_share_is_decided_here() {
+    let mut pool = checked_workers(&[(7, 0), (8, 0)], Telemetry::default());
+    let (results, here) = run_checked_sharing(&mut pool);
+    assert_eq!(results, (0..CHUNKS).map(|c| 10 * c).collect::<Vec<_>>());
+    let sent = |i: usize| {
+        pool.links
+            .iter()
+            .map(|l| l.sent.iter().filter(|&&s| s == i).count())
+            .sum::<usize>()
+    };
+    // A chunk flown by a worker, its check sent and then decided here.
+    let decided_here = (0..CHUNKS)
+        .filter(|&c| sent(c) == 1 && sent(CHUNKS + c) == 1 && here.contains(&c))
+        .count();
+    assert!(
+        decided_here > 0,
+        "no check taken back and decided here: here {here:?}, sent {:?}",
+        pool.links.iter().map(|l| &l.sent).collect::<Vec<_>>()
+    );
+    for c in 0..CHUNKS {
+        assert!(
+            sent(CHUNKS + c) <= 1,
+            "the check of chunk {c} went out twice"
+        );
+    }
+}
+
+/// With the share deciding checks, a liar is refused alone, as without,
+/// and what it answered is flown again.
+#[test]
+fn with_the_share_a_liar_is_still_refused_alone() {
+    let (dir, telemetry) = recorded();
+    let mut pool = checked_workers(&[(7, 1), (8, 0)], telemetry);
+    let (results, _) = run_checked_sharing(&mut pool);
+    assert_eq!(results, (0..CHUNKS).map(|c| 10 * c).collect::<Vec<_>>());
+    assert_refused_alone(&pool, dir.path(), 7, "differs", &[8]);
 }
