@@ -102,6 +102,71 @@ const RUN_OUTPUTS: [(&str, &[&str]); 5] = [
     ("summary.json", &["method", "seed", "trial", "x0", "pad_x"]),
 ];
 
+/// Whose results a folder holds, each known by a file that only its
+/// command writes: a run's checkpoint, best lander or Q(λ) episodes, an
+/// experiment's `experiment.json`, a sweep's `sweep.json`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Results {
+    Run,
+    Experiment,
+    Sweep,
+}
+
+impl Results {
+    const ALL: [Results; 3] = [Results::Run, Results::Experiment, Results::Sweep];
+
+    fn markers(self) -> &'static [&'static str] {
+        match self {
+            Results::Run => &[crate::checkpoint::FILE, "best.json", EPISODES],
+            Results::Experiment => &["experiment.json"],
+            Results::Sweep => &["sweep.json"],
+        }
+    }
+
+    /// "a run", "an experiment", "a sweep".
+    pub fn what(self) -> &'static str {
+        match self {
+            Results::Run => "a run",
+            Results::Experiment => "an experiment",
+            Results::Sweep => "a sweep",
+        }
+    }
+}
+
+/// A folder holding another command's results.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{} holds {}'s results ({}), which {} would overwrite; choose another --out",
+    dir.display(), theirs.what(), file, mine.what()
+)]
+pub struct OthersResults {
+    pub dir: PathBuf,
+    pub theirs: Results,
+    pub file: String,
+    pub mine: Results,
+}
+
+/// Refuses `dir` for `mine`'s outputs where it holds another command's
+/// results, which they would partly overwrite (`generations.jsonl`,
+/// `summary.json` and `report.html` are written by more than one
+/// command), naming the file that tells whose they are.
+pub fn refuse_others(dir: &Path, mine: Results) -> Result<(), OthersResults> {
+    let found = Results::ALL
+        .into_iter()
+        .filter(|&r| r != mine)
+        .flat_map(|r| r.markers().iter().map(move |&m| (r, m)))
+        .find(|(_, m)| dir.join(m).exists());
+    match found {
+        None => Ok(()),
+        Some((theirs, file)) => Err(OthersResults {
+            dir: dir.to_path_buf(),
+            theirs,
+            file: file.into(),
+            mine,
+        }),
+    }
+}
+
 /// Why a folder cannot be readied for a run.
 #[derive(Debug, thiserror::Error)]
 pub enum ClearError {
@@ -263,6 +328,36 @@ pub fn write_json(path: &Path, value: &impl Serialize) -> Result<(), WriteError>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_folder_of_another_commands_results_is_refused_naming_its_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let dir = dir.path();
+        for mine in Results::ALL {
+            assert!(refuse_others(dir, mine).is_ok(), "an empty folder");
+        }
+        for (theirs, file) in [
+            (Results::Sweep, "sweep.json"),
+            (Results::Experiment, "experiment.json"),
+            (Results::Run, "best.json"),
+            (Results::Run, "checkpoint.bin"),
+            (Results::Run, "episodes.jsonl"),
+        ] {
+            std::fs::write(dir.join(file), "{}").unwrap();
+            for mine in Results::ALL {
+                match refuse_others(dir, mine) {
+                    Ok(()) => assert_eq!(mine, theirs, "{file} refused for {}", mine.what()),
+                    Err(e) => {
+                        assert_ne!(mine, theirs, "its own {file}");
+                        assert_eq!((e.theirs, e.file.as_str()), (theirs, file));
+                        let said = e.to_string();
+                        assert!(said.contains(file) && said.contains(mine.what()), "{said}");
+                    }
+                }
+            }
+            std::fs::remove_file(dir.join(file)).unwrap();
+        }
+    }
 
     #[test]
     fn clearing_removes_only_a_runs_own_files() {

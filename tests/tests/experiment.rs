@@ -321,6 +321,21 @@ fn bad_experiment_files_are_named() {
     let none = run_experiment(&file, &dir.path().join("never"), &["--in-flight", "0"]);
     assert!(!none.status.success());
     assert!(stderr(&none).contains("--in-flight"), "{}", stderr(&none));
+    // A run's or a sweep's folder is refused, its files left as they were.
+    for marker in ["best.json", "sweep.json"] {
+        let theirs = dir.path().join(marker);
+        fs::create_dir(&theirs).unwrap();
+        fs::write(theirs.join(marker), "{}").unwrap();
+        fs::write(theirs.join("summary.json"), "theirs").unwrap();
+        let out = run_experiment(&file, &theirs, &[]);
+        assert!(!out.status.success());
+        assert!(stderr(&out).contains(marker), "{}", stderr(&out));
+        assert_eq!(
+            fs::read_to_string(theirs.join("summary.json")).unwrap(),
+            "theirs"
+        );
+        assert!(!theirs.join("experiment.json").exists());
+    }
 }
 
 #[test]

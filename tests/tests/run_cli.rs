@@ -379,10 +379,12 @@ fn a_run_replaces_an_earlier_runs_outputs_and_leaves_an_experiment_alone() {
         "{\"total\": 3}"
     );
 
-    let experiment = tempfile::tempdir().unwrap();
-    fs::write(experiment.path().join("experiment.json"), "{}").unwrap();
-    refused_in(experiment.path(), "experiment.json");
-    assert!(!experiment.path().join("generations.jsonl").exists());
+    for marker in ["experiment.json", "sweep.json"] {
+        let theirs = tempfile::tempdir().unwrap();
+        fs::write(theirs.path().join(marker), "{}").unwrap();
+        refused_in(theirs.path(), marker);
+        assert!(!theirs.path().join("generations.jsonl").exists());
+    }
 }
 
 #[test]

@@ -11,7 +11,8 @@ use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::Backend;
 use lander_coordinator::experiment::store::first_difference;
 use lander_coordinator::run_files::{
-    clear_run_outputs, write_json, BestRecord, RunLog, RunSummary, GENERATIONS,
+    clear_run_outputs, refuse_others, write_json, BestRecord, Results, RunLog, RunSummary,
+    GENERATIONS,
 };
 use lander_coordinator::stop::Stop;
 use lander_coordinator::trial::{finish_trial, Generation, TrialRun};
@@ -328,15 +329,11 @@ fn evolve(
 
 /// Readies `out` for this run, once the configuration and the workers are
 /// known to be good, so a run that cannot start leaves an earlier run's
-/// results alone. An experiment's folder is refused: its tables share
-/// names with a run's files (`generations.jsonl`, `summary.json`).
+/// results alone. An experiment's or a sweep's folder is refused: their
+/// tables share names with a run's files (`generations.jsonl`,
+/// `summary.json`).
 fn prepare(out: &Path) -> anyhow::Result<()> {
-    if out.join("experiment.json").exists() {
-        bail!(
-            "{} holds an experiment (experiment.json); give the run another --out",
-            out.display()
-        );
-    }
+    refuse_others(out, Results::Run)?;
     if out.join(checkpoint::FILE).exists() {
         bail!(
             "{} holds an unfinished run (checkpoint.bin); `lander run --resume {}` finishes it, \

@@ -4,7 +4,7 @@
 
 use super::file::Experiment;
 use super::runner::TrialId;
-use crate::run_files::write_json;
+use crate::run_files::{refuse_others, write_json, OthersResults, Results};
 use lander_report::model::TrialRecord;
 use std::path::{Path, PathBuf};
 
@@ -20,6 +20,8 @@ pub enum StoreError {
     Different { dir: PathBuf, field: String },
     #[error("{dir} holds no experiment to resume (no experiment.json)")]
     NothingToResume { dir: PathBuf },
+    #[error(transparent)]
+    Others(#[from] OthersResults),
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> StoreError + '_ {
@@ -40,6 +42,7 @@ impl Store {
         let store = Store {
             dir: dir.to_path_buf(),
         };
+        refuse_others(dir, Results::Experiment)?;
         let definition = dir.join("experiment.json");
         match (definition.exists(), resume) {
             (true, false) => return Err(StoreError::Occupied { dir: store.dir }),
@@ -194,6 +197,29 @@ mod tests {
             fitness: Vec::new(),
             best: None,
             learning: None,
+        }
+    }
+
+    #[test]
+    fn a_runs_or_a_sweeps_folder_is_refused_and_left_as_it_was() {
+        let dir = tempfile::tempdir().unwrap();
+        for marker in ["best.json", "sweep.json"] {
+            let folder = dir.path().join(marker);
+            std::fs::create_dir(&folder).unwrap();
+            std::fs::write(folder.join(marker), "{}").unwrap();
+            std::fs::write(folder.join("summary.json"), "theirs").unwrap();
+            for resume in [false, true] {
+                assert!(matches!(
+                    Store::open(&folder, &Experiment::default(), resume),
+                    Err(StoreError::Others(_))
+                ));
+            }
+            assert!(!folder.join("experiment.json").exists());
+            assert!(!folder.join("trials").exists());
+            assert_eq!(
+                std::fs::read_to_string(folder.join("summary.json")).unwrap(),
+                "theirs"
+            );
         }
     }
 

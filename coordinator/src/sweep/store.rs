@@ -6,7 +6,7 @@
 use super::file::Sweep;
 use crate::experiment::store::difference_from_file;
 use crate::experiment::{Store, StoreError};
-use crate::run_files::write_json;
+use crate::run_files::{refuse_others, write_json, OthersResults, Results};
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
@@ -21,6 +21,8 @@ pub enum SweepStoreError {
     Io { path: PathBuf, message: String },
     #[error(transparent)]
     Setting(#[from] StoreError),
+    #[error(transparent)]
+    Others(#[from] OthersResults),
 }
 
 /// The sweep folder and one experiment store per setting, in the sweep's
@@ -34,6 +36,7 @@ impl SweepStore {
     /// Opens `dir` for `sweep`: a new folder, or with `resume` one that an
     /// interrupted run of the same sweep left.
     pub fn open(dir: &Path, sweep: &Sweep, resume: bool) -> Result<SweepStore, SweepStoreError> {
+        refuse_others(dir, Results::Sweep)?;
         let definition = dir.join("sweep.json");
         let fresh = serde_json::to_value(sweep.definition()).map_err(|e| SweepStoreError::Io {
             path: definition.clone(),
