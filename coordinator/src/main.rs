@@ -25,12 +25,23 @@ fn main() -> ExitCode {
     }
     match cli::dispatch(args, &stop) {
         Ok(()) => ExitCode::SUCCESS,
+        // Whoever read stdout stopped reading (`lander guide ... | head`):
+        // what it took was what it wanted, and the run's files are written.
+        Err(e) if closed_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             tracing::error!("{e:#}");
             // 128 + SIGINT, as a shell reports a process Ctrl-C stopped.
             ExitCode::from(if stop.asked() { 130 } else { 1 })
         }
     }
+}
+
+fn closed_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 /// SIGINT and SIGTERM ask `stop`: the work stops at its next look, and the

@@ -223,6 +223,45 @@ fn guide_with_epsilon_zero_is_deterministic_and_needs_no_seed() {
     assert!(stderr(&bad).contains("guided.epsilon"), "{}", stderr(&bad));
 }
 
+/// A stdout that cannot be written is an error, said and exited with; one
+/// whose reader stopped reading (`| head`) ends the command quietly.
+#[test]
+fn an_unwritable_stdout_is_an_error_and_a_closed_pipe_is_quiet() {
+    use std::io::Read;
+    use std::process::{Command, Stdio};
+    let args = [
+        "fly", "--genome", "1:12,3:3", "--x0", "200", "--pad-x", "100",
+    ];
+    let full = Command::new(lander_tests::binary("lander"))
+        .args(args)
+        .stdout(fs::File::create("/dev/full").unwrap())
+        .output()
+        .unwrap();
+    assert_eq!(full.status.code(), Some(1), "{}", stderr(&full));
+    assert!(
+        stderr(&full).contains("writing to stdout"),
+        "{}",
+        stderr(&full)
+    );
+    assert!(!stderr(&full).contains("panicked"), "{}", stderr(&full));
+
+    // Far more than a pipe holds, read no further than its first bytes.
+    let genome = vec!["1:5"; 20_000].join(",");
+    let mut child = Command::new(lander_tests::binary("lander"))
+        .args([
+            "guide", "--genome", &genome, "--x0", "200", "--pad-x", "100",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = [0u8; 10];
+    child.stdout.take().unwrap().read_exact(&mut first).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(!stderr(&out).contains("panicked"), "{}", stderr(&out));
+}
+
 #[test]
 fn qlearning_swaps_in_and_repeats_exactly() {
     let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());

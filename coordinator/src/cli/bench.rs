@@ -261,9 +261,9 @@ pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
     // The workers go before the report is printed.
     drop(modes);
     if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+        outln!("{}", serde_json::to_string(&report)?)?;
     } else {
-        print_table(&report);
+        print_table(&report)?;
     }
     anyhow::ensure!(
         report.hashes_agree,
@@ -272,7 +272,7 @@ pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn print_table(r: &Report) {
+fn print_table(r: &Report) -> anyhow::Result<()> {
     let method = if r.method == "ga" {
         "general"
     } else {
@@ -282,11 +282,11 @@ fn print_table(r: &Report) {
         1 => String::new(),
         n => format!(" × {n} trials in flight"),
     };
-    println!(
+    outln!(
         "{method} GA, {} genomes{trials} × {} generations × {} rounds, {} workers, {} chunks per worker",
         r.population, r.generations, r.rounds, r.workers, r.chunks_per_worker
-    );
-    println!(
+    )?;
+    outln!(
         "{:<12} {:>12} {:>10} {:>9} {:>9} {:>9} {:>12} {:>13} {:>15} {:>6}",
         "mode",
         "genomes/s",
@@ -298,10 +298,10 @@ fn print_table(r: &Report) {
         "coord CPU/gen",
         "coord CPU/chunk",
         "util"
-    );
+    )?;
     let us = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.0} µs"));
     for m in &r.modes {
-        println!(
+        outln!(
             "{:<12} {:>12.0} {:>10.1} {:>9} {:>9} {:>9} {:>12} {:>10.0} µs {:>15} {:>6}",
             m.name,
             m.genomes_per_s,
@@ -315,11 +315,11 @@ fn print_table(r: &Report) {
                 .map_or("-".into(), |c| format!("{c:.1} µs")),
             m.worker_utilisation
                 .map_or("-".into(), |u| format!("{:.0}%", u * 100.0)),
-        );
+        )?;
     }
-    print_breakdowns(r);
+    print_breakdowns(r)?;
     let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}×"));
-    println!(
+    outln!(
         "scaling (iceoryx2-{n} / iceoryx2-1): {} (compute alone: {})   ipc efficiency (iceoryx2-{n} / inproc-{n}): {}   \
          zenoh efficiency (zenoh-{n} / inproc-{n}): {}   results agree: {}",
         pct(r.ratios.scaling),
@@ -328,28 +328,35 @@ fn print_table(r: &Report) {
         pct(r.ratios.zenoh_efficiency),
         r.hashes_agree,
         n = r.workers
-    );
+    )
 }
 
 /// Where a generation's time went, for the modes over worker processes.
-fn print_breakdowns(r: &Report) {
+fn print_breakdowns(r: &Report) -> anyhow::Result<()> {
     let rows: Vec<_> = r
         .modes
         .iter()
         .filter_map(|m| Some((&m.name, m.generation?)))
         .collect();
     if rows.is_empty() {
-        return;
+        return Ok(());
     }
-    println!(
+    outln!(
         "a generation, mean µs (each part the mean over workers; with the coordinator's, they add up to the wall time):"
-    );
-    println!(
+    )?;
+    outln!(
         "{:<12} {:>8} {:>11} {:>8} {:>8} {:>8} {:>8} {:>8}",
-        "mode", "wall", "coordinator", "start", "compute", "between", "waiting", "tail"
-    );
+        "mode",
+        "wall",
+        "coordinator",
+        "start",
+        "compute",
+        "between",
+        "waiting",
+        "tail"
+    )?;
     for (name, b) in rows {
-        println!(
+        outln!(
             "{:<12} {:>8.0} {:>11.0} {:>8.0} {:>8.0} {:>8.0} {:>8.0} {:>8.0}",
             name,
             b.wall_us,
@@ -359,6 +366,7 @@ fn print_breakdowns(r: &Report) {
             b.between_us,
             b.waiting_us,
             b.tail_us
-        );
+        )?;
     }
+    Ok(())
 }

@@ -120,10 +120,10 @@ fn experiment_watched(
     let records = ordered(&exp, records);
     let summary = write_outputs(&out, &exp, &records)?;
     if args.json {
-        println!("{}", serde_json::to_string(&summary)?);
+        outln!("{}", serde_json::to_string(&summary)?)?;
     } else {
-        println!("{}", summary.markdown());
-        println!("wrote {}", out.join("report.html").display());
+        outln!("{}", summary.markdown())?;
+        outln!("wrote {}", out.join("report.html").display())?;
     }
     Ok(())
 }

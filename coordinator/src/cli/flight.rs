@@ -193,7 +193,7 @@ pub fn fly(args: FlyArgs) -> anyhow::Result<()> {
         safe: o.safe,
         fitness: o.fitness,
     };
-    println!("{}", serde_json::to_string(&landing)?);
+    outln!("{}", serde_json::to_string(&landing)?)?;
     Ok(())
 }
 
@@ -233,9 +233,9 @@ pub fn guide(args: GuideArgs) -> anyhow::Result<()> {
     let key = StreamKey::new(args.seed, args.trial, args.restart, args.generation);
     let mut rng = key.rng(streams::guide(args.index));
     let guided = guide_pass(&env, &cfg.guided, &genes, &mut rng);
-    println!(
+    outln!(
         "{}",
         serde_json::json!({ "genome": format_genome(&guided) })
-    );
+    )?;
     Ok(())
 }

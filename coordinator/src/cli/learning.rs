@@ -262,22 +262,22 @@ fn finish(
     // The run is over; nothing is left to resume.
     checkpoint::remove(out)?;
     if json {
-        println!("{}", serde_json::to_string(&summary)?);
+        outln!("{}", serde_json::to_string(&summary)?)?;
     } else {
         let first = summary
             .first_safe_episode
             .map_or("never landed".to_string(), |e| {
                 format!("first landed in episode {e}")
             });
-        println!(
+        outln!(
             "qlearning trial {} (seed {}): {} episodes, {first}; landing rate over the last 100: {:.2}; {:.1}s",
             summary.trial, summary.seed, summary.episodes, summary.landing_rate_last_100, summary.wall_s
-        );
-        println!(
+        )?;
+        outln!(
             "wrote {} and {}",
             out.join(EPISODES).display(),
             summary_path.display()
-        );
+        )?;
     }
     Ok(())
 }

@@ -1,5 +1,16 @@
 //! The subcommands of `lander` and their arguments.
 
+/// `println!` that returns an error where stdout cannot be written (a
+/// full disk, a closed pipe) instead of panicking; `main` ends quietly on
+/// a closed pipe, as `lander guide ... | head` closes it.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)
+            .map_err(|e| anyhow::Error::new(e).context("writing to stdout"))
+    }};
+}
+
 mod bench;
 mod experiment;
 mod flight;

@@ -91,7 +91,7 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     };
     std::fs::write(&args.out, draw(&recording))
         .with_context(|| format!("writing {}", args.out.display()))?;
-    println!("{}; wrote {}", recording.title, args.out.display());
+    outln!("{}; wrote {}", recording.title, args.out.display())?;
     Ok(())
 }
 

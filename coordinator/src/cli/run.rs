@@ -305,9 +305,9 @@ fn evolve(
     checkpoint::remove(out)?;
     let summary = RunSummary::new(cfg, &result, wall_s);
     if args.json {
-        println!("{}", serde_json::to_string(&summary)?);
+        outln!("{}", serde_json::to_string(&summary)?)?;
     } else {
-        println!(
+        outln!(
             "{} trial {} (seed {}): {} after {} generations, {} restarts, {:.1}s; best fitness {:.1}",
             summary.id.method,
             summary.id.trial,
@@ -317,12 +317,12 @@ fn evolve(
             summary.restarts,
             wall_s,
             summary.best_fitness
-        );
-        println!(
+        )?;
+        outln!(
             "wrote {} and {}",
             out.join("generations.jsonl").display(),
             best_path.display()
-        );
+        )?;
     }
     Ok(())
 }

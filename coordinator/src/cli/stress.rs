@@ -151,9 +151,9 @@ pub fn stress(args: &StressArgs, work: &Workload, stop_asked: &Stop) -> anyhow::
         if let (Some(soak), Some(map)) = (&soak, value.as_object_mut()) {
             map.insert("soak".into(), serde_json::to_value(soak)?);
         }
-        println!("{}", serde_json::to_string(&value)?);
+        outln!("{}", serde_json::to_string(&value)?)?;
     } else {
-        println!(
+        outln!(
             "{} GA under churn: {} genomes × {} generations, {} workers, {} killed ({:.1}/s asked)",
             report.method,
             report.population,
@@ -161,15 +161,15 @@ pub fn stress(args: &StressArgs, work: &Workload, stop_asked: &Stop) -> anyhow::
             report.workers,
             report.kills,
             report.kill_rate
-        );
-        println!(
+        )?;
+        outln!(
             "{:.0} genomes/s, {:.1} M ticks/s; evaluated {} of {} genomes; results match in-process: {}",
             report.genomes_per_s,
             report.ticks_per_s / 1e6,
             report.evaluated,
             report.expected,
             report.results_match
-        );
+        )?;
     }
     if let Some(soak) = &soak {
         if !args.json {
@@ -179,13 +179,13 @@ pub fn stress(args: &StressArgs, work: &Workload, stop_asked: &Stop) -> anyhow::
                     r.resident_kib, r.open_descriptors, r.iceoryx2_files
                 )
             };
-            println!(
+            outln!(
                 "soak: {} rounds in {:.0} s; after the first: {}; at the end: {}",
                 soak.rounds,
                 soak.seconds,
                 show(&soak.start),
                 show(&soak.end)
-            );
+            )?;
         }
         anyhow::ensure!(
             soak.within_bounds(),

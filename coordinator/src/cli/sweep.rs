@@ -152,10 +152,10 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
 
     let summary = write_sweep_outputs(&store, &sweep, records)?;
     if args.json {
-        println!("{}", serde_json::to_string(&summary)?);
+        outln!("{}", serde_json::to_string(&summary)?)?;
     } else {
-        println!("{}", summary.markdown());
-        println!("wrote {}", out.join("report.html").display());
+        outln!("{}", summary.markdown())?;
+        outln!("wrote {}", out.join("report.html").display())?;
     }
     Ok(())
 }
