@@ -33,6 +33,16 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> StoreError + '_ {
 
 pub struct Store {
     dir: PathBuf,
+    /// The experiment whose trials a record must be one of; none for a
+    /// folder only read.
+    expects: Option<Expected>,
+}
+
+/// What a finished trial's record must say to be one of the experiment's.
+struct Expected {
+    seed: u64,
+    trials: u64,
+    methods: Vec<lander_model::Method>,
 }
 
 impl Store {
@@ -41,6 +51,11 @@ impl Store {
     pub fn open(dir: &Path, exp: &Experiment, resume: bool) -> Result<Store, StoreError> {
         let store = Store {
             dir: dir.to_path_buf(),
+            expects: Some(Expected {
+                seed: exp.seed,
+                trials: exp.trials,
+                methods: exp.methods.clone(),
+            }),
         };
         refuse_others(dir, Results::Experiment)?;
         let definition = dir.join("experiment.json");
@@ -63,6 +78,7 @@ impl Store {
     pub fn read_only(dir: &Path) -> Store {
         Store {
             dir: dir.to_path_buf(),
+            expects: None,
         }
     }
 
@@ -127,9 +143,42 @@ impl Store {
                 path: path.clone(),
                 message: format!("not a trial record: {e}"),
             })?;
+            if let Some(wrong) = self.not_ours(&path, &record) {
+                return Err(StoreError::Io {
+                    path,
+                    message: format!("not one of this experiment's trials: {wrong}"),
+                });
+            }
             records.push(record);
         }
         Ok(records)
+    }
+}
+
+impl Store {
+    /// Why `record`, read from `path`, is not the trial its file name says
+    /// of this experiment, if it is not.
+    fn not_ours(&self, path: &Path, record: &TrialRecord) -> Option<String> {
+        let id = TrialId::of(record);
+        if path != self.path_of(id) {
+            return Some(format!(
+                "it holds {} trial {}",
+                record.method.name(),
+                record.trial
+            ));
+        }
+        let expects = self.expects.as_ref()?;
+        if record.seed != expects.seed {
+            return Some(format!("its seed is {}, the experiment's {}", record.seed, expects.seed));
+        }
+        if !expects.methods.contains(&record.method) || !(1..=expects.trials).contains(&record.trial) {
+            return Some(format!(
+                "the experiment runs trials 1 to {} of {}",
+                expects.trials,
+                expects.methods.iter().map(|m| m.name()).collect::<Vec<_>>().join(", ")
+            ));
+        }
+        None
     }
 }
 
@@ -198,6 +247,38 @@ mod tests {
             best: None,
             learning: None,
         }
+    }
+
+    #[test]
+    fn a_record_that_is_not_the_trial_its_file_names_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let exp = Experiment::default();
+        let store = Store::open(dir.path(), &exp, false).unwrap();
+        let file = dir.path().join("trials/ga-00001.json");
+        let mut seed_2 = record(Method::Ga, 1);
+        seed_2.seed = 2;
+        for (wrong, at, said) in [
+            (record(Method::Ga, 2), file.clone(), "it holds ga trial 2"),
+            (record(Method::Guided, 1), file.clone(), "it holds guided trial 1"),
+            (seed_2, file.clone(), "its seed is 2"),
+            (
+                record(Method::Ga, 99),
+                dir.path().join("trials/ga-00099.json"),
+                "trials 1 to 25",
+            ),
+        ] {
+            write_json(&at, &wrong).unwrap();
+            match store.finished() {
+                Err(StoreError::Io { path, message }) => {
+                    assert_eq!(path, at);
+                    assert!(message.contains(said), "{message}");
+                }
+                other => panic!("{said}: {:?}", other.map(|r| r.len())),
+            }
+            std::fs::remove_file(&at).unwrap();
+        }
+        store.save(&record(Method::Ga, 1)).unwrap();
+        assert_eq!(store.finished().unwrap().len(), 1);
     }
 
     #[test]
