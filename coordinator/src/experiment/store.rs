@@ -169,13 +169,23 @@ impl Store {
         }
         let expects = self.expects.as_ref()?;
         if record.seed != expects.seed {
-            return Some(format!("its seed is {}, the experiment's {}", record.seed, expects.seed));
+            return Some(format!(
+                "its seed is {}, the experiment's {}",
+                record.seed, expects.seed
+            ));
         }
-        if !expects.methods.contains(&record.method) || !(1..=expects.trials).contains(&record.trial) {
+        if !expects.methods.contains(&record.method)
+            || !(1..=expects.trials).contains(&record.trial)
+        {
             return Some(format!(
                 "the experiment runs trials 1 to {} of {}",
                 expects.trials,
-                expects.methods.iter().map(|m| m.name()).collect::<Vec<_>>().join(", ")
+                expects
+                    .methods
+                    .iter()
+                    .map(|m| m.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ));
         }
         None
@@ -259,7 +269,11 @@ mod tests {
         seed_2.seed = 2;
         for (wrong, at, said) in [
             (record(Method::Ga, 2), file.clone(), "it holds ga trial 2"),
-            (record(Method::Guided, 1), file.clone(), "it holds guided trial 1"),
+            (
+                record(Method::Guided, 1),
+                file.clone(),
+                "it holds guided trial 1",
+            ),
             (seed_2, file.clone(), "its seed is 2"),
             (
                 record(Method::Ga, 99),

@@ -200,14 +200,33 @@ impl Sweep {
     }
 
     /// Two grid values can look alike once made fit for a folder name
-    /// (`a/b` and `a_b`); the later one gets its position appended.
+    /// (`a/b` and `a_b`), and a grid's folder like a listed setting's
+    /// name: the grid's setting gets its position appended (and a count
+    /// after that, should that be taken too). Listed names stay as given;
+    /// two alike were refused.
     fn make_folders_unique(&mut self) {
-        let mut seen = std::collections::HashSet::new();
+        use std::collections::HashSet;
+        let mut taken: HashSet<String> = self
+            .settings
+            .iter()
+            .filter(|s| s.grid.is_none())
+            .map(|s| s.folder.clone())
+            .collect();
         for (i, s) in self.settings.iter_mut().enumerate() {
-            if !seen.insert(s.folder.clone()) && s.grid.is_some() {
-                s.folder = format!("{}-{}", s.folder, i + 1);
-                seen.insert(s.folder.clone());
+            if s.grid.is_none() {
+                continue;
             }
+            let mut folder = s.folder.clone();
+            let mut n = 0;
+            while taken.contains(&folder) {
+                n += 1;
+                folder = match n {
+                    1 => format!("{}-{}", s.folder, i + 1),
+                    _ => format!("{}-{}-{n}", s.folder, i + 1),
+                };
+            }
+            taken.insert(folder.clone());
+            s.folder = folder;
         }
     }
 }

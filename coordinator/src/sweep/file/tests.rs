@@ -82,6 +82,30 @@ fn listed_settings_follow_the_grids_and_may_change_nothing() {
     assert_eq!(sweep.settings[2].grid, None);
 }
 
+/// Every setting's folder is its own: a grid's folder that looks like a
+/// listed setting's name, or like one already given, gets its position.
+#[test]
+fn no_two_settings_share_a_folder() {
+    let sweep = parse(&format!(
+        "{BASE}[grids.a]\n\"ga.population\" = [50]\n\
+         [grids.b]\n\"ga.crossover\" = [\"uniform\", \"buckland\"]\n\
+         [[settings]]\nname = \"a-ga.population-50\"\n\
+         [[settings]]\nname = \"a-ga.population-50-1\"\n"
+    ))
+    .unwrap();
+    let folders: Vec<&str> = sweep.settings.iter().map(|s| s.folder.as_str()).collect();
+    assert_eq!(
+        folders,
+        [
+            "a-ga.population-50-1-2",
+            "b-ga.crossover-uniform",
+            "b-ga.crossover-buckland",
+            "a-ga.population-50",
+            "a-ga.population-50-1",
+        ]
+    );
+}
+
 #[test]
 fn the_base_section_changes_every_setting() {
     let sweep = parse(&format!(
