@@ -120,7 +120,12 @@ impl Iox {
 
     /// A command for `bin` that uses this namespace.
     pub fn command(&self, bin: &str) -> Command {
-        let mut cmd = Command::new(binary(bin));
+        self.command_at(&binary(bin))
+    }
+
+    /// A command for the executable at `exe` that uses this namespace.
+    pub fn command_at(&self, exe: &Path) -> Command {
+        let mut cmd = Command::new(exe);
         cmd.env("LANDER_IOX2_PREFIX", &self.prefix)
             .env("LANDER_IOX2_ROOT", self.root.path());
         cmd

@@ -359,6 +359,47 @@ fn a_hung_worker_misses_its_deadline_and_loses_no_work() {
     );
 }
 
+/// A spawned worker that never announces itself (here a `lander-worker`
+/// that only sleeps) is stopped once the deadline has passed since its
+/// start, and replaced; with every replacement the same, the run ends
+/// with an error instead of waiting for ever.
+#[test]
+fn spawned_workers_that_never_join_end_the_run_with_an_error() {
+    use std::os::unix::fs::PermissionsExt;
+    let iox = Iox::new("never_join");
+    let dir = tempfile::tempdir().unwrap();
+    let bin = dir.path().join("bin");
+    std::fs::create_dir(&bin).unwrap();
+    std::fs::copy(lander_tests::binary("lander"), bin.join("lander")).unwrap();
+    let worker = bin.join("lander-worker");
+    std::fs::write(&worker, "#!/bin/sh\nexec sleep 30\n").unwrap();
+    std::fs::set_permissions(&worker, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let started = std::time::Instant::now();
+    // The copy finds the sleeping `lander-worker` beside it.
+    let out = iox
+        .command_at(&bin.join("lander"))
+        .args([
+            "run",
+            "--workers",
+            "1",
+            "--deadline",
+            "0.5",
+            "--max-generations",
+            "2",
+        ])
+        .args(["--out", dir.path().join("out").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let said = stderr(&out);
+    assert!(said.contains("has not joined within 0.5 s"), "{said}");
+    assert!(said.contains("respawns allowed are used up"), "{said}");
+    assert!(
+        started.elapsed() < std::time::Duration::from_secs(30),
+        "{said}"
+    );
+}
+
 #[test]
 fn attached_workers_may_leave_mid_run() {
     let _one_at_a_time = serial();

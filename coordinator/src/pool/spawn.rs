@@ -86,6 +86,7 @@ struct Spawned {
     child: Child,
     id: u64,
     cpu: Option<usize>,
+    started: Instant,
 }
 
 /// A worker started here that exited, reaped.
@@ -163,6 +164,7 @@ impl Children {
             child,
             id: self.next_id,
             cpu,
+            started: Instant::now(),
         });
         self.next_id += 1;
         Ok(pid)
@@ -211,6 +213,16 @@ impl Children {
             }
             std::thread::sleep(Duration::from_millis(1));
         }
+    }
+
+    /// The workers started more than `within` ago whose pid is not among
+    /// `joined`, each as `(pid, id)`: started, but never heard from.
+    pub fn not_joined(&self, joined: &[u32], within: Duration) -> Vec<(u32, u64)> {
+        self.procs
+            .iter()
+            .filter(|p| !joined.contains(&p.child.id()) && p.started.elapsed() > within)
+            .map(|p| (p.child.id(), p.id))
+            .collect()
     }
 
     /// Kills a hung worker; the next `exited` reaps it.

@@ -165,6 +165,7 @@ impl<T: Transport> Pool<T> {
     /// Drops links whose process exited or whose node died, and replaces
     /// spawned workers that are gone. Their chunks go back in `todo`.
     pub(super) fn reap(&mut self, todo: &mut VecDeque<usize>) -> Result<(), EvalError> {
+        self.stop_workers_never_joined();
         for gone in self.children.exited() {
             let pid = gone.pid;
             // Nothing to drop for a worker dropped already, which the pool
@@ -191,6 +192,32 @@ impl<T: Transport> Pool<T> {
         let now = Instant::now();
         self.drop_links(todo, |l| overdue(l, now), Cause::Deadline);
         Ok(())
+    }
+
+    /// Stops the spawned workers that have not joined within the chunk
+    /// deadline of their start (a `lander-worker` that hangs before it
+    /// announces itself): told as timed out, and replaced as the dead
+    /// are, so that a run whose workers never come ends with an error
+    /// once the respawns are spent, rather than waiting for ever.
+    fn stop_workers_never_joined(&mut self) {
+        let joined: Vec<u32> = self.links.iter().map(|l| l.pid()).collect();
+        for (pid, id) in self.children.not_joined(&joined, self.opts.deadline) {
+            if !self.dropped.insert(id) {
+                continue;
+            }
+            tracing::warn!(
+                "worker process {pid} has not joined within {} s of its start; stopping it",
+                self.opts.deadline.as_secs_f64()
+            );
+            self.telemetry.event(Event::WorkerTimedOut {
+                worker: WorkerRef {
+                    id,
+                    host: lander_protocol::host::name(),
+                    pid,
+                },
+            });
+            self.children.kill(pid);
+        }
     }
 
     /// Forgets the links `gone` picks, putting their chunks back first, and
