@@ -172,6 +172,9 @@ mod tests {
             ("[world]\nmax_ticks = 4000000000", "world.max_ticks"),
             ("[scoring]\nw3 = 1e308", "scoring.w3"),
             ("[ga]\npopulation = 100000000", "ga.population"),
+            ("[world]\nthrust = 1e308\nmass = 1e-300", "world.thrust"),
+            ("[world]\nmass = 1e-9", "world.thrust"),
+            ("[world]\ngravity = -1e9", "world.gravity"),
         ] {
             let err = parse(text).unwrap_err();
             assert!(err.contains(field), "{text:?} gave {err:?}");

@@ -105,6 +105,32 @@ impl World {
                 w.height
             ),
         )?;
+        // A velocity change per tick beyond the world's height flies off
+        // any screen in one tick; bounded so, no speed or position over a
+        // flight of max_ticks comes near f64's range (it would turn to
+        // infinities and NaN, written out as nulls).
+        for (field, per_tick, formula) in [
+            (
+                "world.thrust",
+                w.thrust_per_tick(),
+                "world.thrust / world.ticks_per_second / world.mass",
+            ),
+            (
+                "world.gravity",
+                w.gravity_per_tick(),
+                "world.gravity / world.ticks_per_second",
+            ),
+        ] {
+            check(
+                field,
+                per_tick.abs() <= w.height,
+                &format!(
+                    "gives a velocity change per tick ({formula} = {per_tick:?}) beyond \
+                     world.height ({:?})",
+                    w.height
+                ),
+            )?;
+        }
         Ok(())
     }
 
