@@ -279,17 +279,22 @@ impl RunLog {
     pub fn resume(dir: &Path, file: &str, keep: u64) -> Result<RunLog, WriteError> {
         let path = dir.join(file);
         let text = std::fs::read(&path).map_err(at(&path))?;
+        let refuse = |message: String| Err(at(&path)(std::io::Error::other(message)));
         let mut end = 0;
-        for _ in 0..keep {
-            match text[end..].iter().position(|&b| b == b'\n') {
-                Some(i) => end += i + 1,
-                None => {
-                    let message = format!(
-                        "holds fewer lines than its checkpoint's {keep}; the folder is not one run's"
-                    );
-                    return Err(at(&path)(std::io::Error::other(message)));
-                }
+        for line in 1..=keep {
+            let Some(i) = text[end..].iter().position(|&b| b == b'\n') else {
+                return refuse(format!(
+                    "holds fewer lines than its checkpoint's {keep}; the folder is not one run's"
+                ));
+            };
+            // A damaged line kept would stay in the finished log.
+            let kept = &text[end..end + i];
+            if let Err(e) = serde_json::from_slice::<serde_json::Map<_, _>>(kept) {
+                return refuse(format!(
+                    "line {line} is not a log line ({e}); the log is damaged"
+                ));
             }
+            end += i + 1;
         }
         let file = std::fs::OpenOptions::new()
             .write(true)
@@ -357,6 +362,36 @@ mod tests {
             }
             std::fs::remove_file(dir.join(file)).unwrap();
         }
+    }
+
+    #[test]
+    fn a_resumed_log_keeps_its_checkpoints_lines_and_refuses_damaged_ones() {
+        let dir = tempfile::tempdir().unwrap();
+        let dir = dir.path();
+        let good = "{\"index\":1}\n{\"index\":2}\n{\"index\":3}\n";
+        std::fs::write(dir.join(GENERATIONS), good).unwrap();
+        let mut log = RunLog::resume(dir, GENERATIONS, 2).unwrap();
+        log.write(&serde_json::json!({"index": 3})).unwrap();
+        drop(log);
+        assert_eq!(
+            std::fs::read_to_string(dir.join(GENERATIONS)).unwrap(),
+            good
+        );
+
+        let damaged = "{\"index\":1}\nGARBAGE\n{\"index\":3}\n";
+        std::fs::write(dir.join(GENERATIONS), damaged).unwrap();
+        let err = RunLog::resume(dir, GENERATIONS, 3).err().unwrap();
+        assert!(
+            err.to_string().contains("line 2 is not a log line"),
+            "{err}"
+        );
+        assert_eq!(
+            std::fs::read_to_string(dir.join(GENERATIONS)).unwrap(),
+            damaged
+        );
+        std::fs::write(dir.join(GENERATIONS), good).unwrap();
+        let err = RunLog::resume(dir, GENERATIONS, 4).err().unwrap();
+        assert!(err.to_string().contains("fewer lines"), "{err}");
     }
 
     #[test]
