@@ -2,7 +2,7 @@
 //! answer is held while another worker flies its chunk again, taken where
 //! the two agree, and judged by the chunk flown here where they do not.
 
-use super::fake::{assert_refused_alone, no_chunks, pool, recorded, Nowhere, Recorder};
+use super::fake::{answering, assert_refused_alone, no_chunks, pool, recorded, Nowhere};
 use crate::pool::verify::Check;
 use crate::pool::Pool;
 use lander_telemetry::Telemetry;
@@ -12,14 +12,7 @@ const CHUNKS: usize = 6;
 
 /// Links answering every chunk `c` with `10c + lie`.
 fn workers(lies: &[(u64, u8)], telemetry: Telemetry) -> Pool<Nowhere> {
-    let links = lies
-        .iter()
-        .map(|&(id, lie)| Recorder {
-            answer: Some(vec![lie]),
-            ..Recorder::holding(id, Vec::new())
-        })
-        .collect();
-    pool(links, telemetry)
+    pool(answering(lies), telemetry)
 }
 
 /// Runs `CHUNKS` chunks with every answer checked; returns the results

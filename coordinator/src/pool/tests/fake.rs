@@ -166,6 +166,16 @@ pub fn no_chunks(n: usize) -> Vec<Chunk> {
         .collect()
 }
 
+/// Links answering every chunk `c` with `10c + lie`, each `(id, lie)`.
+pub fn answering(lies: &[(u64, u8)]) -> Vec<Recorder> {
+    lies.iter()
+        .map(|&(id, lie)| Recorder {
+            answer: Some(vec![lie]),
+            ..Recorder::holding(id, Vec::new())
+        })
+        .collect()
+}
+
 /// Telemetry with metrics, recording events to a new folder.
 pub fn recorded() -> (tempfile::TempDir, lander_telemetry::Telemetry) {
     let dir = tempfile::tempdir().unwrap();

@@ -2,7 +2,7 @@
 //! between answers (evaluations and Q(λ) trials alike), and takes one back
 //! from a worker's backlog once nothing waits, rather than sleeping.
 
-use super::fake::{assert_refused_alone, no_chunks, recorded, Nowhere, Recorder};
+use super::fake::{answering, assert_refused_alone, no_chunks, recorded, Nowhere, Recorder};
 use crate::pool::verify::Check;
 use crate::pool::{Pool, PoolOptions};
 use lander_protocol::wire::KIND_TRAIN;
@@ -142,13 +142,7 @@ fn checked_workers(lies: &[(u64, u8)], telemetry: Telemetry) -> Pool<Nowhere> {
         ..super::fake::options()
     };
     let mut pool = Pool::with_transport(Nowhere, opts, telemetry).unwrap();
-    pool.links = lies
-        .iter()
-        .map(|&(id, lie)| Recorder {
-            answer: Some(vec![lie]),
-            ..Recorder::holding(id, Vec::new())
-        })
-        .collect();
+    pool.links = answering(lies);
     pool
 }
 
