@@ -46,7 +46,7 @@ pub enum CheckpointError {
     NotACheckpoint { path: PathBuf },
     #[error("{path} is a checkpoint of format {found}; this lander reads format {FORMAT}")]
     Format { path: PathBuf, found: u32 },
-    #[error("{path} is truncated: {found} bytes of a {expected}-byte checkpoint")]
+    #[error("{path} is {}: {found} bytes of a {expected}-byte checkpoint", if found < expected { "truncated" } else { "longer than its checkpoint" })]
     Truncated {
         path: PathBuf,
         found: usize,
@@ -193,7 +193,7 @@ mod tests {
         assert!(said(&bytes[..bytes.len() - 1]).contains("truncated"));
         let mut longer = bytes.clone();
         longer.push(0);
-        assert!(said(&longer).contains("truncated"));
+        assert!(said(&longer).contains("longer than its checkpoint"));
         let mut flipped = bytes.clone();
         let last = flipped.len() - 3;
         flipped[last] ^= 0x10;

@@ -232,17 +232,19 @@ fn written_by_a_run(path: &Path, keys: &[&str]) -> bool {
     }
 }
 
+// The cause is part of the message, not a `source`: a chain printed
+// whole (`{:#}`) would say it twice.
 #[derive(Debug, thiserror::Error)]
-#[error("{path}: {source}")]
+#[error("{path}: {cause}")]
 pub struct WriteError {
     pub path: PathBuf,
-    pub source: std::io::Error,
+    pub cause: std::io::Error,
 }
 
 fn at(path: &Path) -> impl Fn(std::io::Error) -> WriteError + '_ {
-    move |source| WriteError {
+    move |cause| WriteError {
         path: path.to_path_buf(),
-        source,
+        cause,
     }
 }
 

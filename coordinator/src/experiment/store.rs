@@ -69,7 +69,7 @@ impl Store {
         std::fs::create_dir_all(&trials).map_err(io(&trials))?;
         write_json(&definition, exp).map_err(|e| StoreError::Io {
             path: definition.clone(),
-            message: e.source.to_string(),
+            message: e.cause.to_string(),
         })?;
         Ok(store)
     }
@@ -115,7 +115,7 @@ impl Store {
         let path = self.path_of(TrialId::of(record));
         write_json(&path, record).map_err(|e| StoreError::Io {
             path,
-            message: e.source.to_string(),
+            message: e.cause.to_string(),
         })
     }
 

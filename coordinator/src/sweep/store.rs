@@ -54,7 +54,7 @@ impl SweepStore {
         })?;
         write_json(&definition, &fresh).map_err(|e| SweepStoreError::Io {
             path: definition.clone(),
-            message: e.source.to_string(),
+            message: e.cause.to_string(),
         })?;
         let settings = sweep
             .settings
