@@ -56,6 +56,8 @@ pub enum ConfigError {
     // Not a `source`: the message already says it all, once.
     #[error("invalid configuration: {0}")]
     Invalid(ParamError),
+    #[error("{path}: invalid configuration: {error}")]
+    InvalidFile { path: String, error: ParamError },
 }
 
 impl From<ParamError> for ConfigError {
@@ -73,10 +75,13 @@ impl RunConfig {
             error,
         })?;
         let cfg: RunConfig = toml::from_str(&text).map_err(|e| ConfigError::Parse {
-            path: shown,
+            path: shown.clone(),
             message: e.to_string(),
         })?;
-        cfg.validate()?;
+        cfg.validate().map_err(|e| match e {
+            ConfigError::Invalid(error) => ConfigError::InvalidFile { path: shown, error },
+            other => other,
+        })?;
         Ok(cfg)
     }
 

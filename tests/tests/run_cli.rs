@@ -128,8 +128,10 @@ fn bad_configuration_is_refused_naming_the_field() {
             dir.path().to_str().unwrap(),
         ]);
         assert!(!out.status.success(), "{text:?} was accepted");
-        assert!(stderr(&out).contains(needle), "{text:?}: {}", stderr(&out));
-        assert!(!stderr(&out).contains("panicked"));
+        let said = stderr(&out);
+        assert!(said.contains(needle), "{text:?}: {said}");
+        assert!(said.contains("bad.toml"), "the file unnamed: {said}");
+        assert!(!said.contains("panicked"));
     }
     let missing = lander(&["run", "--config", "/nonexistent/cfg.toml"]);
     assert!(!missing.status.success());
