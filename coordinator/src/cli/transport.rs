@@ -78,7 +78,8 @@ pub struct TransportArgs {
     /// [default: random].
     #[arg(long, value_name = "ID")]
     run_id: Option<String>,
-    /// Seconds a worker may take over one chunk before it goes to another.
+    /// Seconds a worker may take over one chunk before it goes to another,
+    /// and a spawned worker to join before it is replaced.
     #[arg(long, value_name = "SECS", default_value_t = 30.0)]
     deadline: f64,
     /// How workers are reached: iceoryx2 on this host, zenoh from any host.
