@@ -36,11 +36,13 @@ fn main() -> ExitCode {
     }
 }
 
+/// Whether `e` is stdout's reader having stopped reading: only a write to
+/// stdout is let go so; any other broken pipe is an error.
 fn closed_pipe(e: &anyhow::Error) -> bool {
     e.chain().any(|cause| {
         cause
-            .downcast_ref::<std::io::Error>()
-            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+            .downcast_ref::<cli::StdoutError>()
+            .is_some_and(cli::StdoutError::is_closed_pipe)
     })
 }
 

@@ -7,7 +7,7 @@ macro_rules! outln {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
         writeln!(std::io::stdout().lock(), $($arg)*)
-            .map_err(|e| anyhow::Error::new(e).context("writing to stdout"))
+            .map_err(|e| anyhow::Error::new($crate::cli::StdoutError(e)))
     }};
 }
 
@@ -27,6 +27,20 @@ use clap::{Parser, Subcommand};
 use lander_coordinator::stop::Stop;
 use lander_model::Method;
 use lander_telemetry::log::LogFormat;
+
+/// A write to stdout that failed, as `outln!` reports it.
+// The cause is part of the message, not a `source`: a chain printed whole
+// would say it twice.
+#[derive(Debug, thiserror::Error)]
+#[error("writing to stdout: {0}")]
+pub struct StdoutError(pub std::io::Error);
+
+impl StdoutError {
+    /// Whether the reader of stdout stopped reading.
+    pub fn is_closed_pipe(&self) -> bool {
+        self.0.kind() == std::io::ErrorKind::BrokenPipe
+    }
+}
 
 #[derive(Parser, Debug)]
 #[command(
