@@ -215,14 +215,17 @@ impl Children {
         }
     }
 
-    /// The workers started more than `within` ago whose pid is not among
-    /// `joined`, each as `(pid, id)`: started, but never heard from.
-    pub fn not_joined(&self, joined: &[u32], within: Duration) -> Vec<(u32, u64)> {
+    /// The workers started more than `within` ago whose pid `joined`
+    /// does not know, each as `(pid, id)`: started, but never heard from.
+    pub fn not_joined<'a>(
+        &'a self,
+        joined: impl Fn(u32) -> bool + 'a,
+        within: Duration,
+    ) -> impl Iterator<Item = (u32, u64)> + 'a {
         self.procs
             .iter()
-            .filter(|p| !joined.contains(&p.child.id()) && p.started.elapsed() > within)
+            .filter(move |p| !joined(p.child.id()) && p.started.elapsed() > within)
             .map(|p| (p.child.id(), p.id))
-            .collect()
     }
 
     /// Kills a hung worker; the next `exited` reaps it.

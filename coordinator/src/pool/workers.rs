@@ -174,11 +174,7 @@ impl<T: Transport> Pool<T> {
             let joined = self.drop_links(todo, |l| l.pid() == pid, Cause::Exited);
             if !joined && !self.dropped.contains(&gone.id) {
                 self.telemetry.event(Event::WorkerDied {
-                    worker: WorkerRef {
-                        id: gone.id,
-                        host: lander_protocol::host::name(),
-                        pid,
-                    },
+                    worker: spawned(gone.id, pid),
                     why: Death::Exited,
                 });
             }
@@ -200,21 +196,24 @@ impl<T: Transport> Pool<T> {
     /// are, so that a run whose workers never come ends with an error
     /// once the respawns are spent, rather than waiting for ever.
     fn stop_workers_never_joined(&mut self) {
-        let joined: Vec<u32> = self.links.iter().map(|l| l.pid()).collect();
-        for (pid, id) in self.children.not_joined(&joined, self.opts.deadline) {
-            if !self.dropped.insert(id) {
-                continue;
-            }
+        // Looked at every pass: nothing is allocated unless one is late.
+        let links = &self.links;
+        let late: Vec<(u32, u64)> = self
+            .children
+            .not_joined(
+                |pid| links.iter().any(|l| l.pid() == pid),
+                self.opts.deadline,
+            )
+            .filter(|(_, id)| !self.dropped.contains(id))
+            .collect();
+        for (pid, id) in late {
+            self.dropped.insert(id);
             tracing::warn!(
                 "worker process {pid} has not joined within {} s of its start; stopping it",
                 self.opts.deadline.as_secs_f64()
             );
             self.telemetry.event(Event::WorkerTimedOut {
-                worker: WorkerRef {
-                    id,
-                    host: lander_protocol::host::name(),
-                    pid,
-                },
+                worker: spawned(id, pid),
             });
             self.children.kill(pid);
         }
@@ -380,6 +379,16 @@ fn worker_args<T: Transport>(transport: &T) -> Vec<String> {
         args.extend(["--log-format".to_string(), "json".to_string()]);
     }
     args
+}
+
+/// A worker spawned on this host, as events name it before it has joined
+/// (and so before its link knows its host).
+fn spawned(id: u64, pid: u32) -> WorkerRef {
+    WorkerRef {
+        id,
+        host: lander_protocol::host::name(),
+        pid,
+    }
 }
 
 #[cfg(test)]
