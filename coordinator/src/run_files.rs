@@ -97,7 +97,7 @@ impl<'a> BestRecord<'a> {
 const RUN_OUTPUTS: [(&str, &[&str]); 5] = [
     ("generations.jsonl", &["index", "best", "mean"]),
     ("events.jsonl", &["time", "run", "event"]),
-    ("best.json", &["method", "seed", "trial", "genome"]),
+    (BEST, &["method", "seed", "trial", "genome"]),
     ("episodes.jsonl", &["episode", "return", "epsilon"]),
     ("summary.json", &["method", "seed", "trial", "x0", "pad_x"]),
 ];
@@ -117,9 +117,9 @@ impl Results {
 
     fn markers(self) -> &'static [&'static str] {
         match self {
-            Results::Run => &[crate::checkpoint::FILE, "best.json", EPISODES],
-            Results::Experiment => &["experiment.json"],
-            Results::Sweep => &["sweep.json"],
+            Results::Run => &[crate::checkpoint::FILE, BEST, EPISODES],
+            Results::Experiment => &[EXPERIMENT],
+            Results::Sweep => &[SWEEP],
         }
     }
 
@@ -142,7 +142,7 @@ impl Results {
 pub struct OthersResults {
     pub dir: PathBuf,
     pub theirs: Results,
-    pub file: String,
+    pub file: &'static str,
     pub mine: Results,
 }
 
@@ -161,7 +161,7 @@ pub fn refuse_others(dir: &Path, mine: Results) -> Result<(), OthersResults> {
         Some((theirs, file)) => Err(OthersResults {
             dir: dir.to_path_buf(),
             theirs,
-            file: file.into(),
+            file,
             mine,
         }),
     }
@@ -258,6 +258,12 @@ pub struct RunLog {
 
 /// The log of the GA methods.
 pub const GENERATIONS: &str = "generations.jsonl";
+/// A GA run's best lander.
+pub const BEST: &str = "best.json";
+/// The experiment an experiment's folder belongs to.
+pub const EXPERIMENT: &str = "experiment.json";
+/// The sweep a sweep's folder belongs to.
+pub const SWEEP: &str = "sweep.json";
 /// The log of Q(λ).
 pub const EPISODES: &str = "episodes.jsonl";
 
@@ -356,7 +362,7 @@ mod tests {
                     Ok(()) => assert_eq!(mine, theirs, "{file} refused for {}", mine.what()),
                     Err(e) => {
                         assert_ne!(mine, theirs, "its own {file}");
-                        assert_eq!((e.theirs, e.file.as_str()), (theirs, file));
+                        assert_eq!((e.theirs, e.file), (theirs, file));
                         let said = e.to_string();
                         assert!(said.contains(file) && said.contains(mine.what()), "{said}");
                     }

@@ -9,6 +9,7 @@ use lander_coordinator::config::RunConfig;
 use lander_coordinator::experiment::outputs::ordered;
 use lander_coordinator::experiment::{Experiment, Store};
 use lander_coordinator::recording::{best_landing, trace};
+use lander_coordinator::run_files::{BEST, EXPERIMENT};
 use lander_model::{parse_genome, Env, Method};
 use lander_report::model::Recording;
 use lander_report::replay::{flight_html, flight_svg};
@@ -122,11 +123,11 @@ fn ending(safe: bool) -> &'static str {
 }
 
 fn from_folder(dir: &Path, args: &ReplayArgs) -> anyhow::Result<Recording> {
-    let best = dir.join("best.json");
+    let best = dir.join(BEST);
     if best.exists() {
         return from_best(&best, args.config.as_deref());
     }
-    let definition = dir.join("experiment.json");
+    let definition = dir.join(EXPERIMENT);
     if definition.exists() {
         if args.config.is_some() {
             bail!(

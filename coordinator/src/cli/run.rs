@@ -11,7 +11,7 @@ use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::Backend;
 use lander_coordinator::experiment::store::first_difference;
 use lander_coordinator::run_files::{
-    clear_run_outputs, refuse_others, write_json, BestRecord, Results, RunLog, RunSummary,
+    clear_run_outputs, refuse_others, write_json, BestRecord, Results, RunLog, RunSummary, BEST,
     GENERATIONS,
 };
 use lander_coordinator::stop::Stop;
@@ -299,7 +299,7 @@ fn evolve(
     let wall_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     drop(evaluator);
-    let best_path = out.join("best.json");
+    let best_path = out.join(BEST);
     write_json(&best_path, &BestRecord::new(cfg, &result))?;
     // The run is over; nothing is left to resume.
     checkpoint::remove(out)?;

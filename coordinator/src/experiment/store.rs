@@ -4,7 +4,7 @@
 
 use super::file::Experiment;
 use super::runner::TrialId;
-use crate::run_files::{refuse_others, write_json, OthersResults, Results};
+use crate::run_files::{refuse_others, write_json, OthersResults, Results, EXPERIMENT};
 use lander_report::model::TrialRecord;
 use std::path::{Path, PathBuf};
 
@@ -58,7 +58,7 @@ impl Store {
             }),
         };
         refuse_others(dir, Results::Experiment)?;
-        let definition = dir.join("experiment.json");
+        let definition = dir.join(EXPERIMENT);
         match (definition.exists(), resume) {
             (true, false) => return Err(StoreError::Occupied { dir: store.dir }),
             (false, true) => return Err(StoreError::NothingToResume { dir: store.dir }),
@@ -153,9 +153,7 @@ impl Store {
         }
         Ok(records)
     }
-}
 
-impl Store {
     /// Why `record`, read from `path`, is not the trial its file name says
     /// of this experiment, if it is not.
     fn not_ours(&self, path: &Path, record: &TrialRecord) -> Option<String> {

@@ -379,9 +379,9 @@ impl<T: Transport> Pool<T> {
     /// has joined: the first still queued (every worker's queue being
     /// full), or else the last queued at the worker with the longest
     /// backlog, taken back as an idle worker takes it (a check taken back
-    /// is decided here). Returns whether it flew one. Between chunks the coordinator collects answers and
-    /// refills the workers, so that they never wait on it for longer than
-    /// one chunk.
+    /// is decided here). Returns whether it flew one. Between chunks the
+    /// coordinator collects answers and refills the workers, so that they
+    /// never wait on it for longer than one chunk.
     fn fly_a_share<R>(
         &mut self,
         chunks: &[Chunk],

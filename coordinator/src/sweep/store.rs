@@ -6,7 +6,7 @@
 use super::file::Sweep;
 use crate::experiment::store::difference_from_file;
 use crate::experiment::{Store, StoreError};
-use crate::run_files::{refuse_others, write_json, OthersResults, Results};
+use crate::run_files::{refuse_others, write_json, OthersResults, Results, EXPERIMENT, SWEEP};
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
@@ -37,7 +37,7 @@ impl SweepStore {
     /// interrupted run of the same sweep left.
     pub fn open(dir: &Path, sweep: &Sweep, resume: bool) -> Result<SweepStore, SweepStoreError> {
         refuse_others(dir, Results::Sweep)?;
-        let definition = dir.join("sweep.json");
+        let definition = dir.join(SWEEP);
         let fresh = serde_json::to_value(sweep.definition()).map_err(|e| SweepStoreError::Io {
             path: definition.clone(),
             message: e.to_string(),
@@ -63,7 +63,7 @@ impl SweepStore {
                 let at = setting_dir(dir, &s.folder);
                 // A setting whose first trial had not finished may have no
                 // folder yet.
-                let begun = at.join("experiment.json").exists();
+                let begun = at.join(EXPERIMENT).exists();
                 Store::open(&at, &s.experiment, resume && begun)
             })
             .collect::<Result<Vec<_>, _>>()?;
