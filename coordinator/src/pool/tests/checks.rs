@@ -2,11 +2,9 @@
 //! answer is held while another worker flies its chunk again, taken where
 //! the two agree, and judged by the chunk flown here where they do not.
 
-use super::fake::{answering, assert_refused_alone, no_chunks, pool, recorded, Nowhere};
-use crate::pool::verify::Check;
+use super::fake::{self, answering, assert_refused_alone, pool, recorded, Nowhere};
 use crate::pool::Pool;
 use lander_telemetry::Telemetry;
-use std::cell::Cell;
 
 const CHUNKS: usize = 6;
 
@@ -18,25 +16,8 @@ fn workers(lies: &[(u64, u8)], telemetry: Telemetry) -> Pool<Nowhere> {
 /// Runs `CHUNKS` chunks with every answer checked; returns the results
 /// and how many chunks were flown here.
 fn run_all_checked(pool: &mut Pool<Nowhere>) -> (Vec<usize>, usize) {
-    let flown_here = Cell::new(0);
-    let check = Check {
-        due: &|_, _| true,
-        here: &|c| {
-            flown_here.set(flown_here.get() + 1);
-            Ok(10 * c)
-        },
-        differs: &|c, a: &usize, b: &usize| (a != b).then(|| format!("its answer to chunk {c}")),
-        shares: false,
-    };
-    let decode = |c: usize, body: &[u8]| Ok(10 * c + usize::from(body[0]));
-    let results = pool
-        .run_checked(&no_chunks(CHUNKS), decode, &check, |_, _| {})
-        .unwrap();
-    assert!(
-        pool.links.iter().all(|l| l.chunks.is_empty()),
-        "a generation leaves nothing in flight"
-    );
-    (results, flown_here.get())
+    let (results, here) = fake::run_all_checked(pool, CHUNKS, false);
+    (results, here.len())
 }
 
 #[test]

@@ -176,6 +176,36 @@ pub fn answering(lies: &[(u64, u8)]) -> Vec<Recorder> {
         .collect()
 }
 
+/// Runs `n` chunks with every answer checked (`shares`: the coordinator
+/// flies a share too), over links whose answer to chunk `c` reads
+/// `10c + lie` where this host's reads `10c`; returns the results and the
+/// chunks flown here, in the order flown.
+pub fn run_all_checked(
+    pool: &mut Pool<Nowhere>,
+    n: usize,
+    shares: bool,
+) -> (Vec<usize>, Vec<usize>) {
+    let here = std::cell::RefCell::new(Vec::new());
+    let check = crate::pool::verify::Check {
+        due: &|_, _| true,
+        here: &|c| {
+            here.borrow_mut().push(c);
+            Ok(10 * c)
+        },
+        differs: &|c, a: &usize, b: &usize| (a != b).then(|| format!("its answer to chunk {c}")),
+        shares,
+    };
+    let decode = |c: usize, body: &[u8]| Ok(10 * c + usize::from(body[0]));
+    let results = pool
+        .run_checked(&no_chunks(n), decode, &check, |_, _| {})
+        .unwrap();
+    assert!(
+        pool.links.iter().all(|l| l.chunks.is_empty()),
+        "a generation leaves nothing in flight"
+    );
+    (results, here.into_inner())
+}
+
 /// Telemetry with metrics, recording events to a new folder.
 pub fn recorded() -> (tempfile::TempDir, lander_telemetry::Telemetry) {
     let dir = tempfile::tempdir().unwrap();

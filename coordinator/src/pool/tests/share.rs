@@ -115,25 +115,10 @@ fn chunks_the_coordinator_cannot_fly_are_left_to_the_workers() {
     assert_eq!(results, expected);
 }
 
-/// Runs `CHUNKS` chunks over links answering chunk `c` with `10c + lie`,
-/// every answer checked, with the coordinator's share; returns the
-/// results and the chunks flown here.
+/// Runs `CHUNKS` chunks, every answer checked, with the coordinator's
+/// share; returns the results and the chunks flown here.
 fn run_checked_sharing(pool: &mut Pool<Nowhere>) -> (Vec<usize>, Vec<usize>) {
-    let here = RefCell::new(Vec::new());
-    let check = Check {
-        due: &|_, _| true,
-        here: &|c| {
-            here.borrow_mut().push(c);
-            Ok(10 * c)
-        },
-        differs: &|c, a: &usize, b: &usize| (a != b).then(|| format!("its answer to chunk {c}")),
-        shares: true,
-    };
-    let decode = |c: usize, body: &[u8]| Ok(10 * c + usize::from(body[0]));
-    let results = pool
-        .run_checked(&no_chunks(CHUNKS), decode, &check, |_, _| {})
-        .unwrap();
-    (results, here.into_inner())
+    super::fake::run_all_checked(pool, CHUNKS, true)
 }
 
 fn checked_workers(lies: &[(u64, u8)], telemetry: Telemetry) -> Pool<Nowhere> {
