@@ -76,7 +76,7 @@ impl RunConfig {
         })?;
         let cfg: RunConfig = toml::from_str(&text).map_err(|e| ConfigError::Parse {
             path: shown.clone(),
-            message: e.to_string(),
+            message: toml_error(&text, &e),
         })?;
         cfg.validate().map_err(|e| match e {
             ConfigError::Invalid(error) => ConfigError::InvalidFile { path: shown, error },
@@ -105,6 +105,66 @@ impl RunConfig {
             pad_x: pad_x(self, restart),
         }
     }
+}
+
+/// The most characters of a TOML file's line, or of a parse error's
+/// message, that an error shows: a file's one long line (a 1 MB value)
+/// would otherwise be printed whole.
+const SHOWN_CHARS: usize = 120;
+
+/// A TOML parse error of `text` as the user reads it: where, the line
+/// around that place (clipped to [`SHOWN_CHARS`]) with a caret under it,
+/// and what is wrong.
+/// An error without a place in `text` (from a value, not a file's text) is
+/// its message alone.
+pub fn toml_error(text: &str, e: &toml::de::Error) -> String {
+    let Some(span) = e.span().filter(|s| s.start <= text.len()) else {
+        return clipped(e.to_string().trim_end());
+    };
+    let message = clipped(e.message().trim_end());
+    let start = text.floor_char_boundary(span.start);
+    let line_start = text[..start].rfind('\n').map_or(0, |i| i + 1);
+    let line_end = text[start..].find('\n').map_or(text.len(), |i| start + i);
+    let line_no = text[..start].matches('\n').count() + 1;
+    let column = text[line_start..start].chars().count();
+    let (shown, caret) = clip(text[line_start..line_end].trim_end_matches('\r'), column);
+    let gutter = " ".repeat(line_no.to_string().len());
+    format!(
+        "TOML parse error at line {line_no}, column {}\n{gutter} |\n{line_no} | {shown}\n{gutter} | {}^\n{message}",
+        column + 1,
+        " ".repeat(caret)
+    )
+}
+
+/// Each line of `message` cut to at most [`SHOWN_CHARS`] characters, with
+/// `…` where it was cut: a value echoed in it may be a whole long line.
+pub fn clipped(message: &str) -> String {
+    let lines: Vec<String> = message.lines().map(|l| clip(l, 0).0).collect();
+    lines.join("\n")
+}
+
+/// `line` cut to at most [`SHOWN_CHARS`] characters around the character
+/// at `at`, with `…` where it was cut, and where `at` falls in what is
+/// shown.
+fn clip(line: &str, at: usize) -> (String, usize) {
+    let chars: Vec<char> = line.chars().collect();
+    if chars.len() <= SHOWN_CHARS {
+        return (line.to_string(), at);
+    }
+    let from = at
+        .saturating_sub(SHOWN_CHARS / 2)
+        .min(chars.len() - SHOWN_CHARS);
+    let to = from + SHOWN_CHARS;
+    let mut shown: String = chars[from..to].iter().collect();
+    let mut caret = at - from;
+    if from > 0 {
+        shown.insert(0, '…');
+        caret += 1;
+    }
+    if to < chars.len() {
+        shown.push('…');
+    }
+    (shown, caret)
 }
 
 /// The trial's start column, `U[0, W)` from `(seed, trial)`.
@@ -205,5 +265,57 @@ mod shipped {
     fn the_shipped_defaults_file_is_the_built_in_defaults() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments/defaults.toml");
         assert_eq!(RunConfig::load(&path).unwrap(), RunConfig::default());
+    }
+
+    fn parse_error(text: &str) -> String {
+        let e = toml::from_str::<RunConfig>(text).unwrap_err();
+        toml_error(text, &e)
+    }
+
+    #[test]
+    fn a_parse_error_shows_its_line_with_a_caret_under_the_place() {
+        assert_eq!(
+            parse_error("[ga]\npopulation = = 3\n"),
+            "TOML parse error at line 2, column 14\n  |\n2 | population = = 3\n  |              ^\n\
+             extra `=`, expected nothing"
+        );
+    }
+
+    #[test]
+    fn a_long_line_is_shown_clipped_around_the_place() {
+        let text = format!("{} = = 3\n", "x".repeat(1_000_000));
+        let shown = parse_error(&text);
+        let lines: Vec<&str> = shown.lines().collect();
+        assert_eq!(lines[0], "TOML parse error at line 1, column 1000004");
+        let line = lines[2].strip_prefix("1 | ").unwrap();
+        assert_eq!(line.chars().count(), SHOWN_CHARS + 1, "{line}");
+        assert!(line.starts_with('…') && line.ends_with("x = = 3"), "{line}");
+        let caret = lines[3].strip_prefix("  | ").unwrap();
+        assert_eq!(caret.trim_start().to_string(), "^");
+        let under = line.chars().nth(caret.len() - 1).unwrap();
+        assert_eq!(under, '=');
+        assert_eq!(line.chars().nth(caret.len() - 3), Some('='));
+        assert!(shown.len() < 400, "{} bytes", shown.len());
+    }
+
+    #[test]
+    fn a_long_value_in_a_message_is_clipped() {
+        let text = format!("[ga]\npopulation = \"{}\"\n", "a".repeat(1_000_000));
+        let shown = parse_error(&text);
+        assert!(
+            shown.len() < 600,
+            "{} bytes: {}",
+            shown.len(),
+            shown.chars().take(600).collect::<String>()
+        );
+        assert!(shown.contains("line 2"), "{shown}");
+        // The place is near the line's start, so the quoted line (after its
+        // "2 | " gutter) and the message are each clipped at their end.
+        let lines: Vec<&str> = shown.lines().collect();
+        let quoted = lines[2].strip_prefix("2 | ").unwrap();
+        assert_eq!(quoted.chars().count(), SHOWN_CHARS + 1, "{quoted}");
+        assert!(quoted.ends_with("aa…"), "{quoted}");
+        assert!(lines[4].starts_with("invalid type: string"), "{shown}");
+        assert_eq!(lines[4].chars().count(), SHOWN_CHARS + 1, "{}", lines[4]);
     }
 }

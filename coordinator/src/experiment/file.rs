@@ -1,7 +1,7 @@
 //! An experiment file: which methods, how many paired trials, the seed, and
 //! the parameters every trial shares (the same sections as a run's TOML).
 
-use crate::config::{ConfigError, RunConfig};
+use crate::config::{toml_error, ConfigError, RunConfig};
 use crate::ga::GaParams;
 use lander_model::check::{check, ParamError};
 use lander_model::Method;
@@ -77,7 +77,7 @@ impl Experiment {
         })?;
         let exp: Experiment = toml::from_str(&text).map_err(|e| ConfigError::Parse {
             path: shown.clone(),
-            message: e.to_string(),
+            message: toml_error(&text, &e),
         })?;
         exp.validate().map_err(|e| ConfigError::Parse {
             path: shown,

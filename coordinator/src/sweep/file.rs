@@ -4,7 +4,7 @@
 //! (`[[settings]]`). Every key and value is checked here, before anything
 //! runs, and an error names the grid or setting and the key.
 
-use crate::config::ConfigError;
+use crate::config::{clipped, toml_error, ConfigError};
 use crate::experiment::file::{is_folder_name, FOLDER_NAME_RULE};
 use crate::experiment::Experiment;
 use serde::Serialize;
@@ -106,10 +106,12 @@ impl Sweep {
 
     /// Parses and checks a sweep file's text.
     pub fn parse(text: &str, allow_large: bool) -> Result<Sweep, String> {
-        let mut doc: Table = toml::from_str(text).map_err(|e| e.to_string())?;
+        let mut doc: Table = toml::from_str(text).map_err(|e| toml_error(text, &e))?;
         let grids = doc.remove("grids");
         let listed = doc.remove("settings");
-        let base: Experiment = Value::Table(doc).try_into().map_err(|e| e.to_string())?;
+        let base: Experiment = Value::Table(doc)
+            .try_into()
+            .map_err(|e| toml_error(text, &e))?;
         base.validate().map_err(|e| e.to_string())?;
         let grids = grids.map_or(Ok(Vec::new()), |g| read_grids(g, &base))?;
         let listed = listed.map_or(Ok(Vec::new()), |s| read_listed(s, &base))?;
@@ -394,12 +396,14 @@ fn apply(
     let mut doc = full.clone();
     for (key, value) in values {
         set(&mut doc, key, value.clone());
-        let _: Experiment = doc
-            .clone()
-            .try_into()
-            .map_err(|e| format!("setting '{name}', key '{key}': {}", e.to_string().trim()))?;
+        let _: Experiment = doc.clone().try_into().map_err(|e| {
+            format!(
+                "setting '{name}', key '{key}': {}",
+                clipped(e.to_string().trim())
+            )
+        })?;
     }
-    let mut exp: Experiment = doc.try_into().map_err(|e| e.to_string())?;
+    let mut exp: Experiment = doc.try_into().map_err(|e| clipped(&e.to_string()))?;
     exp.name = if is_folder_name(folder) {
         folder.to_string()
     } else {
