@@ -102,9 +102,28 @@ pub fn config() -> Result<Config, IpcError> {
     });
     if let Some(root) = root {
         let path = Path::new(root.as_bytes()).map_err(fail(format!("{ROOT_ENV}={root}")))?;
+        check_root(&root)?;
         config.global.set_root_path(&path);
     }
     Ok(config)
+}
+
+/// Checks that iceoryx2 can keep its files under `root`: a directory, made
+/// if missing, in which this process may create a file. iceoryx2 itself
+/// says only `InternalError` when it cannot, naming neither the directory
+/// nor the variable that moves it.
+fn check_root(root: &str) -> Result<(), IpcError> {
+    let failed = |detail: String| IpcError {
+        what: format!("the directory for its files, {root} (set {ROOT_ENV} to move it)"),
+        detail,
+    };
+    let dir = std::path::Path::new(root);
+    std::fs::create_dir_all(dir).map_err(|e| failed(e.to_string()))?;
+    let probe = dir.join(format!(".lander-probe-{}", std::process::id()));
+    std::fs::File::create(&probe).map_err(|e| failed(format!("cannot create a file: {e}")))?;
+    // The probe was made by this process under a name no other takes.
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
 }
 
 /// The iceoryx2 resources of this prefix on the host now: its files in

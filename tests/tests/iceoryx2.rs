@@ -578,6 +578,10 @@ fn bad_worker_options_are_refused() {
         ),
         (vec!["bench", "--spin-us", "20000"], "--spin-us"),
         (
+            vec!["bench", "--transports", "inproc,iceoryx2,inproc"],
+            "--transports names \"inproc\" twice",
+        ),
+        (
             vec!["run", "--workers", "1", "--users", "u.txt"],
             "--users is for --transport zenoh",
         ),
@@ -633,6 +637,30 @@ fn bad_worker_options_are_refused() {
         .unwrap();
     assert!(!out.status.success());
     assert!(stderr(&out).contains("--cpu 100000"), "{}", stderr(&out));
+}
+
+#[test]
+fn an_unusable_iceoryx2_folder_is_named_with_its_variable() {
+    let _one_at_a_time = serial();
+    let iox = Iox::new("badroot");
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "").unwrap();
+    for root in [file.clone(), file.join("below")] {
+        let out = iox
+            .command("lander")
+            .args(["run", "--workers", "1", "--out"])
+            .arg(dir.path().join("out"))
+            .env("LANDER_IOX2_ROOT", &root)
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{root:?} was accepted");
+        let err = stderr(&out);
+        assert!(
+            err.contains(&root.display().to_string()) && err.contains("LANDER_IOX2_ROOT"),
+            "{err}"
+        );
+    }
 }
 
 #[test]

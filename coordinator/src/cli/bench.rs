@@ -145,10 +145,15 @@ fn pool_options_for(
 }
 
 /// The modes `--transports` names, in its order, each transport checked
-/// before any evaluator starts.
+/// before any evaluator starts. A transport named twice is refused: its
+/// modes would be measured twice and reported as two.
 fn kinds(args: &BenchArgs) -> anyhow::Result<Vec<ModeKind>> {
     let mut kinds = Vec::new();
-    for transport in &args.transports {
+    for (i, transport) in args.transports.iter().enumerate() {
+        anyhow::ensure!(
+            !args.transports[..i].contains(transport),
+            "--transports names {transport:?} twice"
+        );
         match ModeKind::for_transport(transport, args.workers) {
             Some(k) => kinds.extend(k),
             None => anyhow::bail!(
