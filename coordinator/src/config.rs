@@ -237,6 +237,10 @@ mod tests {
             ("[world]\nmax_ticks = 4000000000", "world.max_ticks"),
             ("[scoring]\nw3 = 1e308", "scoring.w3"),
             ("[ga]\npopulation = 100000000", "ga.population"),
+            (
+                "[ga]\npopulation = 10001\ngenome_length = 10000",
+                "ga.population",
+            ),
             ("[world]\nthrust = 1e308\nmass = 1e-300", "world.thrust"),
             ("[world]\nmass = 1e-9", "world.thrust"),
             ("[world]\ngravity = -1e9", "world.gravity"),

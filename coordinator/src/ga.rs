@@ -61,6 +61,17 @@ impl Default for GaParams {
     }
 }
 
+/// The most genes one generation may hold (`ga.population ×
+/// ga.genome_length`): each limit alone would still let a generation need
+/// tens of gigabytes, and a run that asks for more memory than the host
+/// has is killed without a word.
+pub const MAX_GENES: usize = 100_000_000;
+
+/// About what a trial keeps per gene of its generation: the parents and
+/// their offspring, two bytes each (`/usr/bin/time -f %M` of a run of
+/// 20,000 genomes of 1,000 genes: 95 MB).
+pub const BYTES_PER_GENE: usize = 5;
+
 impl GaParams {
     /// Checks every field, naming the first out of range.
     pub fn check(&self) -> Result<(), ParamError> {
@@ -73,6 +84,19 @@ impl GaParams {
             "ga.genome_length",
             (1..=10_000).contains(&self.genome_length),
             "must be 1 to 10,000",
+        )?;
+        let genes = self.population * self.genome_length;
+        check(
+            "ga.population",
+            genes <= MAX_GENES,
+            &format!(
+                "times ga.genome_length must be at most 100,000,000 genes a \
+                 generation (got {} × {} = {genes}); a run keeps about {BYTES_PER_GENE} \
+                 bytes a gene, so this one would need about {} GB",
+                self.population,
+                self.genome_length,
+                (genes * BYTES_PER_GENE).div_ceil(1_000_000_000)
+            ),
         )?;
         check(
             "ga.max_duration",

@@ -78,9 +78,17 @@ pub enum ExperimentError {
     Store(String),
 }
 
-/// Runs `tasks` with at most `in_flight` GA trials at once. Every trial's
-/// results depend only on its configuration, never on `in_flight`, the
-/// backend, the other tasks or the order of finishing.
+/// The most genes the GA trials in flight may hold together (four of the
+/// largest generations a trial may have, about 2 GB): beyond it a trial
+/// waits for a running one to finish, so that many trials of large
+/// generations do not take more memory than the host has. One trial always
+/// runs.
+pub const MAX_GENES_IN_FLIGHT: usize = 4 * crate::ga::MAX_GENES;
+
+/// Runs `tasks` with at most `in_flight` GA trials at once (fewer where
+/// their generations would hold more than [`MAX_GENES_IN_FLIGHT`] genes).
+/// Every trial's results depend only on its configuration, never on
+/// `in_flight`, the backend, the other tasks or the order of finishing.
 pub fn run<K: Copy + Send + Sync>(
     tasks: &[Task<K>],
     backend: &mut dyn Backend,
@@ -92,7 +100,11 @@ pub fn run<K: Copy + Send + Sync>(
         .partition(|t| t.cfg.method == Method::Qlearning);
     let mut evolved = Ok(());
     backend.drive(&mut |evaluator| {
-        evolved = evolve(&evolving, evaluator, in_flight.max(1), progress);
+        let most = InFlight {
+            trials: in_flight.max(1),
+            genes: MAX_GENES_IN_FLIGHT,
+        };
+        evolved = evolve(&evolving, evaluator, most, progress);
     });
     evolved?;
     learn(&learning, backend, progress)
@@ -105,17 +117,34 @@ struct Running<K> {
     started: Instant,
 }
 
+/// The most GA trials in flight, and the most genes their generations hold.
+#[derive(Clone, Copy, Debug)]
+struct InFlight {
+    trials: usize,
+    genes: usize,
+}
+
+/// The genes of one generation of a trial.
+fn genes(cfg: &RunConfig) -> usize {
+    cfg.ga.population * cfg.ga.genome_length
+}
+
 fn evolve<K: Copy + Send>(
     tasks: &[&Task<K>],
     backend: &mut dyn Evaluator,
-    in_flight: usize,
+    most: InFlight,
     progress: &mut dyn Progress<K>,
 ) -> Result<(), ExperimentError> {
-    let mut queue = tasks.iter();
+    let mut queue = tasks.iter().peekable();
     let mut running: Vec<Running<K>> = Vec::new();
     loop {
-        while running.len() < in_flight {
-            let Some(task) = queue.next() else { break };
+        let mut held: usize = running.iter().map(|r| genes(r.run.config())).sum();
+        while running.len() < most.trials {
+            let room = |t: &&&Task<K>| held == 0 || held + genes(&t.cfg) <= most.genes;
+            let Some(task) = queue.next_if(room) else {
+                break;
+            };
+            held += genes(&task.cfg);
             progress.started(task.key, &task.cfg);
             running.push(Running {
                 key: task.key,
@@ -268,5 +297,71 @@ pub fn learning_record(
             landing_rate_last_100: t.landing_rate_last_100,
             returns: result.episodes.iter().map(|e| e.reward).collect(),
         }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::evaluator::InProcess;
+
+    const SMALL: &str = "name = \"s\"\ntrials = 3\nmethods = [\"ga\", \"guided\"]\n\
+        [ga]\npopulation = 12\ngenome_length = 10\nmax_generations = 4\nmax_restarts = 1\n";
+
+    /// The records by key, and the most trials running at once.
+    #[derive(Default)]
+    struct Watch {
+        running: usize,
+        most: usize,
+        records: Vec<(TrialId, TrialRecord)>,
+    }
+
+    impl Progress<TrialId> for Watch {
+        fn started(&mut self, _: TrialId, _: &RunConfig) {
+            self.running += 1;
+            self.most = self.most.max(self.running);
+        }
+        fn generation(&mut self, _: TrialId, _: &Generation) {}
+        fn finished(
+            &mut self,
+            key: TrialId,
+            mut record: TrialRecord,
+        ) -> Result<(), ExperimentError> {
+            self.running -= 1;
+            record.wall_s = 0.0;
+            self.records.push((key, record));
+            Ok(())
+        }
+    }
+
+    fn evolved(genes: usize) -> Watch {
+        let exp: Experiment = toml::from_str(SMALL).unwrap();
+        exp.validate().unwrap();
+        let tasks = experiment_tasks(&exp, &trials(&exp));
+        let tasks: Vec<&Task<TrialId>> = tasks.iter().collect();
+        let mut backend = InProcess::new(2).unwrap();
+        let mut watch = Watch::default();
+        let most = InFlight { trials: 8, genes };
+        evolve(&tasks, &mut backend, most, &mut watch).unwrap();
+        watch
+            .records
+            .sort_by_key(|(id, _)| (id.trial, id.method.name()));
+        watch
+    }
+
+    #[test]
+    fn trials_wait_while_those_in_flight_hold_the_most_genes() {
+        // 120 genes a generation: 6 trials fit in 8 × 120, two in 250,
+        // and one trial larger than the bound still runs alone.
+        let free = evolved(MAX_GENES_IN_FLIGHT);
+        assert_eq!((free.most, free.records.len()), (6, 6));
+        for (genes, most) in [(250, 2), (120, 1), (50, 1)] {
+            let bound = evolved(genes);
+            assert_eq!(bound.most, most, "{genes} genes");
+            assert!(
+                bound.records == free.records,
+                "{genes} genes: other results"
+            );
+        }
     }
 }

@@ -214,3 +214,19 @@ fn pair_by_pair(
     }
     next
 }
+
+#[test]
+fn a_generation_of_more_than_the_most_genes_is_refused_with_its_memory() {
+    let mut p = GaParams::default();
+    (p.population, p.genome_length) = (10_000, 10_000);
+    assert_eq!(p.check(), Ok(()), "exactly the most genes");
+    (p.population, p.genome_length) = (1_000_000, 10_000);
+    let e = p.check().unwrap_err();
+    assert_eq!(e.field, "ga.population");
+    assert_eq!(
+        e.problem,
+        "times ga.genome_length must be at most 100,000,000 genes a generation \
+         (got 1000000 × 10000 = 10000000000); a run keeps about 5 bytes a gene, \
+         so this one would need about 50 GB"
+    );
+}
