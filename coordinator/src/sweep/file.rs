@@ -160,7 +160,7 @@ impl Sweep {
             for i in 0..grid.size() {
                 let values = grid.combination(i);
                 let name = format!("{}: {}", grid.name, shown(&values));
-                let folder = folder_of(&grid.name, &values);
+                let folder = fitted(folder_of(&grid.name, &values), settings.len());
                 settings.push((name, folder, Some(grid.name.clone()), values));
             }
         }
@@ -272,6 +272,22 @@ fn folder_of(grid: &str, values: &[(String, Value)]) -> String {
         .collect()
 }
 
+/// The longest folder name a grid's setting is given, leaving room for
+/// [`Sweep::make_folders_unique`]'s suffixes within the 255 bytes most
+/// file systems take.
+const MAX_FOLDER: usize = 240;
+
+/// `folder`, cut to [`MAX_FOLDER`] bytes with the setting's `position`
+/// (from 0) appended where it is longer, so that cut names stay apart.
+/// `folder_of` leaves only ASCII, so any byte is a place to cut.
+fn fitted(folder: String, position: usize) -> String {
+    if folder.len() <= MAX_FOLDER {
+        return folder;
+    }
+    let mark = format!("-{}", position + 1);
+    format!("{}{mark}", &folder[..MAX_FOLDER - mark.len()])
+}
+
 fn read_grids(grids: Value, base: &Experiment) -> Result<Vec<Grid>, String> {
     let Value::Table(grids) = grids else {
         return Err("grids: must be tables, one per grid: [grids.NAME]".into());
@@ -292,6 +308,7 @@ fn read_grids(grids: Value, base: &Experiment) -> Result<Vec<Grid>, String> {
         if keyed.is_empty() {
             return Err(format!("{at}: names no keys"));
         }
+        once_each(&keyed).map_err(|key| format!("{at}, key '{key}': {GIVEN_TWICE}"))?;
         let mut keys = Vec::new();
         let mut values = Vec::new();
         for (key, value) in keyed {
@@ -331,6 +348,8 @@ fn read_listed(listed: Value, base: &Experiment) -> Result<Vec<Listed>, String> 
             return Err(format!("setting '{name}': its name {FOLDER_NAME_RULE}"));
         }
         let values = flatten(table);
+        once_each(&values)
+            .map_err(|key| format!("setting '{name}', key '{key}': {GIVEN_TWICE}"))?;
         for (key, _) in &values {
             check_key(&full, key).map_err(|e| format!("setting '{name}', key '{key}': {e}"))?;
         }
@@ -355,6 +374,20 @@ fn flatten(table: Table) -> Vec<(String, Value)> {
         }
     }
     out
+}
+
+const GIVEN_TWICE: &str =
+    "given twice (as \"guided.epsilon\", guided.epsilon or a [guided] table, which say the same)";
+
+/// Each key once: the forms [`flatten`] reads say the same, so a key given
+/// in two of them would set one value and name the other. Returns a key
+/// given twice.
+fn once_each(values: &[(String, Value)]) -> Result<(), String> {
+    let mut seen = std::collections::HashSet::new();
+    match values.iter().find(|(key, _)| !seen.insert(key.as_str())) {
+        Some((key, _)) => Err(key.clone()),
+        None => Ok(()),
+    }
 }
 
 /// A key a setting may change: a field of one of the [`SECTIONS`].

@@ -107,6 +107,60 @@ fn no_two_settings_share_a_folder() {
 }
 
 #[test]
+fn a_long_folder_name_is_cut_and_numbered() {
+    let grid = "g".repeat(64);
+    let keys: String = [
+        "guided.w_y",
+        "guided.w_t",
+        "guided.r",
+        "guided.h1",
+        "guided.h2",
+    ]
+    .iter()
+    .chain(&["ga.crossover_rate", "ga.mutation_rate"])
+    .map(|k| format!("\"{k}\" = [0.5, 0.50000000000001]\n"))
+    .collect();
+    let sweep = parse(&format!("{BASE}[grids.{grid}]\n{keys}")).unwrap();
+    assert_eq!(sweep.settings.len(), 128);
+    let folders: std::collections::HashSet<&str> =
+        sweep.settings.iter().map(|s| s.folder.as_str()).collect();
+    assert_eq!(folders.len(), 128, "each setting a folder of its own");
+    let mut cut = 0;
+    for (i, s) in sweep.settings.iter().enumerate() {
+        assert!(s.folder.len() <= MAX_FOLDER, "{}", s.folder);
+        assert!(
+            s.folder.starts_with(&format!("{grid}-guided.w_y-0.5")),
+            "{}",
+            s.folder
+        );
+        if s.folder.len() == MAX_FOLDER {
+            assert!(s.folder.ends_with(&format!("-{}", i + 1)), "{}", s.folder);
+            cut += 1;
+        }
+    }
+    let last = &sweep.settings[127].folder;
+    assert!(cut > 0 && last.len() == MAX_FOLDER, "{last}");
+}
+
+#[test]
+fn a_key_given_twice_is_refused() {
+    for (text, wanted) in [
+        (
+            "[[settings]]\nname = \"x\"\n\"guided.epsilon\" = 0.5\nguided = { epsilon = 0.0 }\n",
+            "setting 'x', key 'guided.epsilon': given twice",
+        ),
+        (
+            "[grids.a]\n\"guided.epsilon\" = [0.1, 0.5]\nguided = { epsilon = [0.0] }\n",
+            "grid 'a', key 'guided.epsilon': given twice",
+        ),
+    ] {
+        let text = format!("{BASE}{text}");
+        let err = parse(&text).expect_err(&text);
+        assert!(err.contains(wanted), "{text}\n→ {err}");
+    }
+}
+
+#[test]
 fn the_base_section_changes_every_setting() {
     let sweep = parse(&format!(
         "{BASE}[ga]\nmax_generations = 50\n[grids.g]\n\"guided.epsilon\" = [0.0, 0.5]\n"
