@@ -74,8 +74,9 @@ pub struct BestRecord<'a> {
     /// The whole configuration, not just the world: `lander replay --run`
     /// must fly the genome under the same world and scoring, and parse it
     /// with the same `ga.max_duration`, without the user passing --config
-    /// again.
-    pub config: &'a RunConfig,
+    /// again. Its `threads` is left at 0: the thread count changes no
+    /// result, and best.json is the same whatever it was.
+    pub config: RunConfig,
 }
 
 impl<'a> BestRecord<'a> {
@@ -86,7 +87,10 @@ impl<'a> BestRecord<'a> {
             restart: result.restarts,
             genome: format_genome(&result.best.genome),
             outcome: &result.best.outcome,
-            config: cfg,
+            config: RunConfig {
+                threads: 0,
+                ..cfg.clone()
+            },
         }
     }
 }

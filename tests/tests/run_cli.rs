@@ -91,16 +91,19 @@ fn results_do_not_depend_on_the_thread_count() {
                 )
             })
             .collect();
-        let logs: Vec<Vec<u8>> = dirs
-            .iter()
-            .map(|d| fs::read(d.path().join("generations.jsonl")).unwrap())
-            .collect();
+        let read = |file: &str| -> Vec<Vec<u8>> {
+            dirs.iter()
+                .map(|d| fs::read(d.path().join(file)).unwrap())
+                .collect()
+        };
+        let (logs, bests) = (read("generations.jsonl"), read("best.json"));
         for i in 1..3 {
             assert_eq!(
                 without_wall_time(runs[0].clone()),
                 without_wall_time(runs[i].clone())
             );
             assert_eq!(logs[0], logs[i], "{method}: generations.jsonl differs");
+            assert_eq!(bests[0], bests[i], "{method}: best.json differs");
         }
     }
 }
