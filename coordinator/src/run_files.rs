@@ -271,6 +271,15 @@ pub const SWEEP: &str = "sweep.json";
 /// The log of Q(λ).
 pub const EPISODES: &str = "episodes.jsonl";
 
+/// The key that numbers a log's lines from 1, where it has one.
+fn numbered_by(file: &str) -> Option<&'static str> {
+    match file {
+        GENERATIONS => Some("index"),
+        EPISODES => Some("episode"),
+        _ => None,
+    }
+}
+
 impl RunLog {
     /// A new log `file` in `dir`, replacing any.
     pub fn create(dir: &Path, file: &str) -> Result<RunLog, WriteError> {
@@ -299,12 +308,26 @@ impl RunLog {
                     "holds fewer lines than its checkpoint's {keep}; the folder is not one run's"
                 ));
             };
-            // A damaged line kept would stay in the finished log.
+            // A damaged line kept would stay in the finished log, and so
+            // would one out of its place (another run's, or edited).
             let kept = &text[end..end + i];
-            if let Err(e) = serde_json::from_slice::<serde_json::Map<_, _>>(kept) {
-                return refuse(format!(
-                    "line {line} is not a log line ({e}); the log is damaged"
-                ));
+            let fields = match serde_json::from_slice::<serde_json::Map<_, _>>(kept) {
+                Ok(fields) => fields,
+                Err(e) => {
+                    return refuse(format!(
+                        "line {line} is not a log line ({e}); the log is damaged"
+                    ))
+                }
+            };
+            if let Some(key) = numbered_by(file) {
+                let number = fields.get(key).and_then(serde_json::Value::as_u64);
+                if number != Some(line) {
+                    let found =
+                        number.map_or(format!("no \"{key}\""), |n| format!("\"{key}\": {n}"));
+                    return refuse(format!(
+                        "line {line} has {found} where this run's log has {line}; the log is not this run's"
+                    ));
+                }
             }
             end += i + 1;
         }
@@ -404,6 +427,36 @@ mod tests {
         std::fs::write(dir.join(GENERATIONS), good).unwrap();
         let err = RunLog::resume(dir, GENERATIONS, 4).err().unwrap();
         assert!(err.to_string().contains("fewer lines"), "{err}");
+    }
+
+    #[test]
+    fn a_resumed_log_refuses_lines_out_of_their_place() {
+        let dir = tempfile::tempdir().unwrap();
+        let dir = dir.path();
+        for (file, text, wanted) in [
+            (
+                GENERATIONS,
+                "{\"index\":1}\n{}\n{\"index\":3}\n",
+                "line 2 has no \"index\" where this run's log has 2",
+            ),
+            (
+                GENERATIONS,
+                "{\"index\":1}\n{\"index\":2298}\n",
+                "line 2 has \"index\": 2298 where this run's log has 2",
+            ),
+            (
+                EPISODES,
+                "{\"episode\":2}\n",
+                "line 1 has \"episode\": 2 where this run's log has 1",
+            ),
+        ] {
+            std::fs::write(dir.join(file), text).unwrap();
+            let keep = text.lines().count() as u64;
+            let err = RunLog::resume(dir, file, keep).err().unwrap().to_string();
+            assert!(err.contains(wanted) && err.contains(file), "{err}");
+            let left = std::fs::read_to_string(dir.join(file)).unwrap();
+            assert_eq!(left, text, "a refused log is left as it was");
+        }
     }
 
     #[test]
