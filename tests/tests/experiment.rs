@@ -277,7 +277,7 @@ fn a_killed_experiment_resumes_where_it_stopped() {
     let other = run_experiment(&file, &out, &["--resume", "--trials", "9"]);
     assert!(!other.status.success());
     assert!(
-        stderr(&other).contains("trials differs"),
+        stderr(&other).contains("trials: ") && stderr(&other).contains(" there, 9 here"),
         "{}",
         stderr(&other)
     );

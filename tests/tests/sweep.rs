@@ -282,7 +282,7 @@ fn results_are_the_same_in_process_on_workers_and_after_a_kill_and_resume() {
     let other = sweep(&file, &killed, &["--resume", "--trials", "7"]);
     assert!(!other.status.success());
     assert!(
-        stderr(&other).contains("base.trials differs"),
+        stderr(&other).contains("base.trials: ") && stderr(&other).contains(" there, 7 here"),
         "{}",
         stderr(&other)
     );
@@ -380,4 +380,36 @@ fn the_sweep_report_loads_in_a_browser_with_its_plots_and_links() {
         let path: PathBuf = out.join(link);
         assert!(path.is_file(), "{link} leads nowhere");
     }
+}
+
+#[test]
+fn the_resume_hint_after_an_interrupt_is_a_command_that_finishes_the_sweep() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_file(dir.path(), "sweep.toml", &longer());
+    let out = dir.path().join("out");
+    let child = Command::new(lander_tests::binary("lander"))
+        .args(["sweep", &file, "--trials", "5", "--out"])
+        .arg(&out)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    assert!(
+        wait_until(60, || finished_trials(&out) >= 2),
+        "no trial finished within a minute"
+    );
+    let stopped = lander_tests::interrupt(child);
+    let said = stderr(&stopped);
+    let hint = said
+        .split('`')
+        .find(|s| s.starts_with("lander sweep "))
+        .unwrap_or_else(|| panic!("no resume hint in: {said}"));
+    assert!(hint.ends_with("--resume --trials 5"), "{hint}");
+    let args: Vec<&str> = hint.split(' ').skip(1).collect();
+    let resumed = Command::new(lander_tests::binary("lander"))
+        .args(&args)
+        .output()
+        .unwrap();
+    assert!(resumed.status.success(), "{}", stderr(&resumed));
+    assert!(out.join("sweep.csv").exists());
 }

@@ -112,7 +112,16 @@ fn experiment_watched(
         labels: HashMap::new(),
     };
     let todo = experiment_tasks(&exp, &todo);
-    run(&todo, backend.as_mut(), in_flight, &mut progress).context("the experiment stopped")?;
+    run(&todo, backend.as_mut(), in_flight, &mut progress).with_context(|| {
+        let trials = args
+            .trials
+            .map_or(String::new(), |t| format!(" --trials {t}"));
+        format!(
+            "the experiment stopped; `lander experiment {} --out {} --resume{trials}` finishes it",
+            args.file.display(),
+            out.display()
+        )
+    })?;
     say_busy(backend.as_ref(), args.transport.workers, since);
     drop(backend);
     overall.finish_and_clear();

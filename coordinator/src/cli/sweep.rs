@@ -140,11 +140,18 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
     };
     lander_coordinator::experiment::run(&plan.tasks, backend.as_mut(), in_flight, &mut progress)
         .with_context(|| {
-            format!(
-                "the sweep stopped; `lander sweep {} --out {} --resume` finishes it",
+            let mut again = format!(
+                "lander sweep {} --out {} --resume",
                 args.file.display(),
                 out.display()
-            )
+            );
+            if let Some(trials) = args.trials {
+                again.push_str(&format!(" --trials {trials}"));
+            }
+            if args.allow_large {
+                again.push_str(" --allow-large");
+            }
+            format!("the sweep stopped; `{again}` finishes it")
         })?;
     say_busy(backend.as_ref(), args.transport.workers, since);
     drop(backend);

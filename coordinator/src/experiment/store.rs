@@ -14,9 +14,7 @@ pub enum StoreError {
     Io { path: PathBuf, message: String },
     #[error("{dir} already holds an experiment's results; pass --resume to finish it, or choose another --out")]
     Occupied { dir: PathBuf },
-    #[error(
-        "{dir} holds results of a different experiment ({field} differs); choose another --out"
-    )]
+    #[error("{dir} holds results of a different experiment ({field}); choose another --out")]
     Different { dir: PathBuf, field: String },
     #[error("{dir} holds no experiment to resume (no experiment.json)")]
     NothingToResume { dir: PathBuf },
@@ -191,15 +189,35 @@ impl Store {
 }
 
 /// The first field where the JSON in the file at `path` differs from
-/// `current`, for a folder's `--resume` check; an unreadable or malformed
-/// file is an error.
+/// `current`, with both values where they are plain ("ga.population: 12
+/// there, 7 here"), for a folder's `--resume` check; an unreadable or
+/// malformed file is an error.
 pub(crate) fn difference_from_file(
     path: &Path,
     current: &serde_json::Value,
 ) -> Result<Option<String>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
     let stored: serde_json::Value = serde_json::from_str(&text).map_err(|e| e.to_string())?;
-    Ok(first_difference(&stored, current, ""))
+    Ok(first_difference(&stored, current, "").map(|field| {
+        match (leaf(&stored, &field), leaf(current, &field)) {
+            (Some(was), Some(is)) => format!("{field}: {was} there, {is} here"),
+            _ => format!("{field} differs"),
+        }
+    }))
+}
+
+/// The value at a dotted `field` of `value`, shown, where it is a number,
+/// a string or a boolean; `None` for a table or list (whose difference
+/// the field names) or where a key holds a dot itself.
+fn leaf(value: &serde_json::Value, field: &str) -> Option<String> {
+    let mut at = value;
+    for key in field.split('.') {
+        at = at.get(key)?;
+    }
+    match at {
+        serde_json::Value::Array(_) | serde_json::Value::Object(_) => None,
+        shown => Some(shown.to_string()),
+    }
 }
 
 /// The dotted path of the first field where two JSON values differ.
@@ -336,7 +354,9 @@ mod tests {
         let mut other = exp.clone();
         other.ga.population = 7;
         match Store::open(&dir, &other, true) {
-            Err(StoreError::Different { field, .. }) => assert_eq!(field, "ga.population"),
+            Err(StoreError::Different { field, .. }) => {
+                assert_eq!(field, "ga.population: 100 there, 7 here")
+            }
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("a different experiment resumed the folder"),
         }

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 pub enum SweepStoreError {
     #[error("{dir} already holds a sweep's results; pass --resume to finish it, or choose another --out")]
     Occupied { dir: PathBuf },
-    #[error("{dir} holds results of a different sweep ({field} differs); choose another --out")]
+    #[error("{dir} holds results of a different sweep ({field}); choose another --out")]
     Different { dir: PathBuf, field: String },
     #[error("{dir} holds no sweep to resume (no sweep.json)")]
     NothingToResume { dir: PathBuf },
