@@ -41,6 +41,8 @@ struct Expected {
     seed: u64,
     trials: u64,
     methods: Vec<lander_model::Method>,
+    /// Each trial's start and first pad follow from it.
+    experiment: Experiment,
 }
 
 impl Store {
@@ -53,6 +55,7 @@ impl Store {
                 seed: exp.seed,
                 trials: exp.trials,
                 methods: exp.methods.clone(),
+                experiment: exp.clone(),
             }),
         };
         refuse_others(dir, Results::Experiment)?;
@@ -184,7 +187,23 @@ impl Store {
                     .join(", ")
             ));
         }
-        None
+        let env = expects
+            .experiment
+            .config(record.method, record.trial)
+            .env(0);
+        if record.x0 != env.x0 || record.pad_x != env.pad_x {
+            return Some(format!(
+                "it starts at x0 {} over the pad at {}, where the trial starts at {} over {}",
+                record.x0, record.pad_x, env.x0, env.pad_x
+            ));
+        }
+        match record.generations {
+            Some(n) if n != record.fitness.len() as u64 => Some(format!(
+                "it counts {n} generations but holds the fitness of {}",
+                record.fitness.len()
+            )),
+            _ => None,
+        }
     }
 }
 
@@ -257,19 +276,28 @@ mod tests {
     use super::*;
     use lander_model::Method;
 
+    /// A record of `trial` of the default experiment, starting where that
+    /// trial starts, of 7 generations.
     fn record(method: Method, trial: u64) -> TrialRecord {
+        let env = Experiment::default().config(method, trial).env(0);
+        let point = |index| lander_report::model::FitnessPoint {
+            index,
+            restart: 0,
+            best: 2.0,
+            mean: 1.0,
+        };
         TrialRecord {
             method,
             seed: 1,
             trial,
-            x0: 10.0,
-            pad_x: 100.0,
+            x0: env.x0,
+            pad_x: env.pad_x,
             landed: true,
             generations: Some(7),
             restarts: Some(0),
             episodes: None,
             wall_s: 0.5,
-            fitness: Vec::new(),
+            fitness: (1..=7).map(point).collect(),
             best: None,
             learning: None,
         }
@@ -283,6 +311,10 @@ mod tests {
         let file = dir.path().join("trials/ga-00001.json");
         let mut seed_2 = record(Method::Ga, 1);
         seed_2.seed = 2;
+        let mut moved = record(Method::Ga, 1);
+        moved.x0 = -5000.0;
+        let mut short = record(Method::Ga, 1);
+        short.fitness.pop();
         for (wrong, at, said) in [
             (record(Method::Ga, 2), file.clone(), "it holds ga trial 2"),
             (
@@ -291,6 +323,12 @@ mod tests {
                 "it holds guided trial 1",
             ),
             (seed_2, file.clone(), "its seed is 2"),
+            (moved, file.clone(), "it starts at x0 -5000"),
+            (
+                short,
+                file.clone(),
+                "it counts 7 generations but holds the fitness of 6",
+            ),
             (
                 record(Method::Ga, 99),
                 dir.path().join("trials/ga-00099.json"),
