@@ -42,6 +42,39 @@ pub struct Parents {
     pub fitness: Vec<f64>,
 }
 
+/// The most memory a workload may hold, in bytes: it keeps every
+/// generation it measures, so `--generations` or `--population` large
+/// enough would take the host's memory before the first mode starts.
+pub const MAX_BYTES: u64 = 4_000_000_000;
+
+#[derive(Debug, thiserror::Error)]
+pub enum WorkloadError {
+    #[error(transparent)]
+    Trial(#[from] TrialError),
+    #[error(
+        "the workload would hold more than {} GB after {steps} generations \
+         (each generation's genomes and their parents are kept); ask for \
+         fewer --generations, a smaller --population or fewer --in-flight",
+        MAX_BYTES / 1_000_000_000
+    )]
+    TooLarge { steps: usize },
+}
+
+/// About what a genome of `genes` genes takes kept: its genes, two bytes
+/// each, and its vector's header and allocation.
+fn genome_bytes(genes: usize) -> u64 {
+    2 * genes as u64 + 48
+}
+
+impl Population {
+    /// About the memory it holds.
+    fn bytes(&self) -> u64 {
+        let held =
+            |genomes: &[Genome]| -> u64 { genomes.iter().map(|g| genome_bytes(g.len())).sum() };
+        held(&self.genomes) + self.bred_from.as_ref().map_or(0, |p| held(&p.genomes))
+    }
+}
+
 impl Workload {
     /// `generations` steps of `in_flight` trials, numbered from the
     /// configuration's trial on; `None` takes as many steps as the first
@@ -54,11 +87,21 @@ impl Workload {
         generations: Option<u64>,
         in_flight: usize,
         stop: &Stop,
-    ) -> Result<Workload, TrialError> {
+    ) -> Result<Workload, WorkloadError> {
         let cfg = RunConfig {
             method: pass.method(),
             ..cfg.clone()
         };
+        // Asked for a count, a workload too large is refused at once;
+        // otherwise as it grows past the bound.
+        if let Some(n) = generations {
+            let step =
+                2 * (in_flight * cfg.ga.population) as u64 * genome_bytes(cfg.ga.genome_length);
+            if n.saturating_mul(step) > MAX_BYTES {
+                return Err(WorkloadError::TooLarge { steps: n as usize });
+            }
+        }
+        let mut held = 0;
         let mut flights = (0..in_flight as u64)
             .map(|t| Flown::new(&cfg, t, in_flight as u64))
             .collect::<Result<Vec<_>, _>>()?;
@@ -73,12 +116,16 @@ impl Workload {
                 break;
             }
             if stop.asked() {
-                return Err(TrialError::Eval(EvalError::Interrupted));
+                return Err(TrialError::Eval(EvalError::Interrupted).into());
             }
             let step = flights
                 .iter_mut()
                 .map(Flown::next)
                 .collect::<Result<Vec<_>, _>>()?;
+            held += step.iter().map(Population::bytes).sum::<u64>();
+            if held > MAX_BYTES {
+                return Err(WorkloadError::TooLarge { steps: steps.len() });
+            }
             steps.push(step);
         }
         Ok(Workload {
@@ -241,12 +288,35 @@ mod tests {
     }
 
     #[test]
+    fn a_workload_past_the_memory_bound_is_refused_before_it_is_flown() {
+        // 100 genomes of 50 genes and their parents: about 30 kB a step.
+        let err = Workload::new(
+            &RunConfig::default(),
+            Pass::Fly,
+            Some(1_000_000),
+            1,
+            &Stop::new(),
+        )
+        .err()
+        .unwrap();
+        assert!(matches!(err, WorkloadError::TooLarge { steps: 1_000_000 }));
+        assert!(
+            err.to_string()
+                .contains("more than 4 GB after 1000000 generations"),
+            "{err}"
+        );
+        assert!(Workload::new(&small(), Pass::Fly, Some(3), 2, &Stop::new()).is_ok());
+    }
+
+    #[test]
     fn a_stop_ends_the_building_and_the_last_trial_number_is_refused() {
         let stop = Stop::new();
         stop.ask();
         assert!(matches!(
             Workload::new(&small(), Pass::Fly, Some(3), 1, &stop),
-            Err(TrialError::Eval(EvalError::Interrupted))
+            Err(WorkloadError::Trial(TrialError::Eval(
+                EvalError::Interrupted
+            )))
         ));
         let last = RunConfig {
             trial: u64::MAX,
@@ -254,7 +324,7 @@ mod tests {
         };
         assert!(matches!(
             Workload::new(&last, Pass::Fly, Some(1), 2, &Stop::new()),
-            Err(TrialError::TrialNumber(u64::MAX))
+            Err(WorkloadError::Trial(TrialError::TrialNumber(u64::MAX)))
         ));
     }
 
