@@ -313,6 +313,29 @@ fn a_start_no_run_could_draw_is_refused_naming_the_flag() {
 }
 
 #[test]
+fn a_negative_number_is_refused_as_a_value_naming_its_flag() {
+    let guide = ["guide", "--genome", "1:3", "--x0", "5", "--pad-x", "100"];
+    for (args, needle) in [
+        (
+            &["--epsilon", "-1"][..],
+            "guided.epsilon must be in [0, 1] (got -1)",
+        ),
+        (&["--seed", "-1"], "invalid value '-1' for '--seed <SEED>'"),
+    ] {
+        let out = lander(&[&guide[..], args].concat());
+        assert!(!out.status.success(), "{args:?}");
+        assert!(stderr(&out).contains(needle), "{}", stderr(&out));
+    }
+    let out = lander(&["run", "--threads", "-2"]);
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("invalid value '-2' for '--threads <THREADS>'"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
 fn replaying_a_run_flies_it_in_the_world_the_run_recorded() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = dir.path().join("long.toml");

@@ -24,6 +24,8 @@ use std::time::Duration;
 #[command(
     name = "lander-worker",
     version,
+    // `--cpu -1` is refused as a CPU number, not read as an unknown flag.
+    allow_negative_numbers = true,
     about = "Serves lander evaluation jobs for one run, over iceoryx2 shared memory or zenoh",
     long_about = "Serves lander evaluation jobs for one run, over iceoryx2 shared memory on \
         this host or zenoh from any host.\n\n\

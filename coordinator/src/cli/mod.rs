@@ -59,25 +59,36 @@ pub struct Cli {
     pub log_format: LogFormat,
 }
 
+// Every subcommand takes negative numbers as values (`--x0 -5`), so that
+// one out of range is refused by its own check, naming the flag, rather
+// than read as an unknown flag.
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Run one trial and write its generations and best lander.
+    #[command(allow_negative_numbers = true)]
     Run(run::RunArgs),
     /// Fly one genome and print where and how it touched down.
+    #[command(allow_negative_numbers = true)]
     Fly(flight::FlyArgs),
     /// Apply the guided evolve pass to one genome and print the result.
+    #[command(allow_negative_numbers = true)]
     Guide(flight::GuideArgs),
     /// Run an experiment of many paired trials and write tables, plots and a report.
+    #[command(allow_negative_numbers = true)]
     Experiment(experiment::ExperimentArgs),
     /// Run one experiment under many settings as one workload, and compare
     /// the settings in tables, plots and a report.
+    #[command(allow_negative_numbers = true)]
     Sweep(sweep::SweepArgs),
     /// Draw a flight as an SVG or an animated HTML page.
+    #[command(allow_negative_numbers = true)]
     Replay(replay::ReplayArgs),
     /// Compare evaluation throughput in-process, over iceoryx2 and over zenoh, side by side.
+    #[command(allow_negative_numbers = true)]
     Bench(bench::BenchArgs),
     /// Relay between a coordinator and workers on hosts that cannot reach
     /// each other: a zenoh router, until SIGTERM or SIGINT.
+    #[command(allow_negative_numbers = true)]
     Router(router::RouterArgs),
 }
 
