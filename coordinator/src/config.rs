@@ -244,6 +244,14 @@ mod tests {
             ("[world]\nthrust = 1e308\nmass = 1e-300", "world.thrust"),
             ("[world]\nmass = 1e-9", "world.thrust"),
             ("[world]\ngravity = -1e9", "world.gravity"),
+            (
+                "[world]\ngravity = -1.63",
+                "world.gravity must not be negative",
+            ),
+            (
+                "[world]\nthrust = -350",
+                "world.thrust must not be negative",
+            ),
         ] {
             let err = parse(text).unwrap_err();
             assert!(err.contains(field), "{text:?} gave {err:?}");

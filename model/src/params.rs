@@ -69,8 +69,11 @@ impl World {
         positive("world.height", w.height)?;
         at_most("world.width", w.width, 1e6)?;
         at_most("world.height", w.height, 1e6)?;
-        finite("world.gravity", w.gravity)?;
-        finite("world.thrust", w.thrust)?;
+        // Gravity pulls the lander down and thrust pushes it along its
+        // nose: negative, a lander falls up off the screen and flies to
+        // max_ticks, to a fitness that means nothing.
+        non_negative("world.gravity", w.gravity)?;
+        non_negative("world.thrust", w.thrust)?;
         positive("world.mass", w.mass)?;
         positive("world.ticks_per_second", w.ticks_per_second)?;
         finite("world.rotation_step", w.rotation_step)?;

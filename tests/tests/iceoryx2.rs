@@ -553,7 +553,10 @@ fn bad_worker_options_are_refused() {
     let iox = Iox::new("badopts");
     for (args, needle) in [
         (vec!["run", "--workers", "two"], "--workers"),
-        (vec!["run", "--workers", "-1"], "invalid value '-1' for '--workers <N>'"),
+        (
+            vec!["run", "--workers", "-1"],
+            "invalid value '-1' for '--workers <N>'",
+        ),
         (vec!["run", "--workers", "1000"], "at most 128"),
         (vec!["run", "--workers", "2", "--attach"], "--attach"),
         (vec!["run", "--attach", "--run-id", "bad id!"], "--run-id"),
