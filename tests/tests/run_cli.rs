@@ -481,3 +481,32 @@ fn ctrl_c_stops_an_in_process_q_learning_run_with_its_episodes_kept() {
     assert_eq!(episodes, (1..=episodes.len() as u64).collect::<Vec<_>>());
     assert!(!dir.path().join("summary.json").exists());
 }
+
+#[test]
+fn an_out_that_is_a_file_is_refused_by_every_command_that_writes_a_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("a-file");
+    fs::write(&file, "mine").unwrap();
+    let sweep = dir.path().join("sweep.toml");
+    fs::write(
+        &sweep,
+        "name = \"s\"\ntrials = 1\nmethods = [\"ga\"]\n[[settings]]\nname = \"x\"\n",
+    )
+    .unwrap();
+    let paper = concat!(env!("CARGO_MANIFEST_DIR"), "/../experiments/paper.toml");
+    let out = file.to_str().unwrap();
+    for args in [
+        vec!["run", "--out", out],
+        vec!["experiment", paper, "--out", out],
+        vec!["sweep", sweep.to_str().unwrap(), "--out", out],
+    ] {
+        let ran = lander(&args);
+        assert!(!ran.status.success(), "{args:?}");
+        let said = stderr(&ran);
+        assert!(
+            said.contains(&format!("--out {out}: not a folder")),
+            "{said}"
+        );
+    }
+    assert_eq!(fs::read_to_string(&file).unwrap(), "mine");
+}

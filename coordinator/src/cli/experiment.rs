@@ -71,6 +71,7 @@ fn experiment_watched(
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("results").join(&exp.name));
+    super::out_folder(&out)?;
     let store = Store::open(&out, &exp, args.resume)?;
     watch.begin(&out, "experiment")?;
     let mut records = store.finished()?;

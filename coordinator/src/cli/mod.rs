@@ -92,6 +92,16 @@ enum Command {
     Router(router::RouterArgs),
 }
 
+/// Refuses an `--out` that names something other than a folder (a file),
+/// where creating the folder or a file in it would fail with the system's
+/// "File exists" or "Not a directory".
+pub(super) fn out_folder(out: &std::path::Path) -> anyhow::Result<()> {
+    if out.exists() && !out.is_dir() {
+        anyhow::bail!("--out {}: not a folder", out.display());
+    }
+    Ok(())
+}
+
 /// Runs a subcommand; those that evaluate stop when `stop` is asked.
 pub fn dispatch(cli: Cli, stop: &Stop) -> anyhow::Result<()> {
     match cli.command {

@@ -333,6 +333,7 @@ fn evolve(
 /// tables share names with a run's files (`generations.jsonl`,
 /// `summary.json`).
 fn prepare(out: &Path) -> anyhow::Result<()> {
+    super::out_folder(out)?;
     refuse_others(out, Results::Run)?;
     if out.join(checkpoint::FILE).exists() {
         bail!(

@@ -78,6 +78,7 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("results").join(&sweep.base.name));
+    super::out_folder(&out)?;
     let store = SweepStore::open(&out, &sweep, args.resume)?;
     watch.begin(&out, "sweep")?;
     let mut records = store
