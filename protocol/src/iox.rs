@@ -13,6 +13,7 @@
 //! | `lander/<run>/worker/<w>/jobs`| event            | coordinator → worker  |
 
 use crate::wire::{JobHeader, ResultHeader, WireGene, WorkerAnnounce};
+use iceoryx2::node::NodeView;
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::{event, publish_subscribe, request_response};
 use std::fmt::Debug;
@@ -124,6 +125,30 @@ fn check_root(root: &str) -> Result<(), IpcError> {
     // The probe was made by this process under a name no other takes.
     let _ = std::fs::remove_file(&probe);
     Ok(())
+}
+
+/// The process id of another live node on this host of `node`'s name,
+/// if there is one: a coordinator's node is named after its run, and two
+/// coordinators of one run would share its services and its workers.
+pub fn other_alive_named(node: &Node<ipc::Service>) -> Result<Option<i64>, IpcError> {
+    let name = node.name().as_str().to_string();
+    let mine = *node.id();
+    let mut found = None;
+    Node::<ipc::Service>::list(node.config(), |state| {
+        if let NodeState::Alive(view) = &state {
+            let same = view
+                .details()
+                .as_ref()
+                .filter(|d| d.name().as_str() == name);
+            if let (true, Some(details)) = (*view.id() != mine, same) {
+                found = Some(i64::from(details.process_id().value()));
+                return CallbackProgression::Stop;
+            }
+        }
+        CallbackProgression::Continue
+    })
+    .map_err(fail("listing this host's iceoryx2 nodes"))?;
+    Ok(found)
 }
 
 /// The iceoryx2 resources of this prefix on the host now: its files in

@@ -956,3 +956,46 @@ fn spawned_workers_get_a_cpu_each_and_the_batch_class() {
         );
     }
 }
+
+#[test]
+fn a_second_coordinator_of_a_running_run_id_is_refused() {
+    let _one_at_a_time = serial();
+    let iox = Iox::new("dupid");
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("first.log");
+    let mut first = iox
+        .command("lander")
+        .args(["run", "--attach", "--run-id", "dup", "--out"])
+        .arg(dir.path().join("first"))
+        .stdout(Stdio::null())
+        .stderr(fs::File::create(&log).unwrap())
+        .spawn()
+        .unwrap();
+    // Waiting for workers, the first has its run's services open.
+    let waiting = wait_until(30, || {
+        fs::read_to_string(&log).is_ok_and(|t| t.contains("waiting for workers"))
+    });
+    let second = waiting.then(|| {
+        iox.command("lander")
+            .args(["run", "--attach", "--run-id", "dup", "--out"])
+            .arg(dir.path().join("second"))
+            .output()
+            .unwrap()
+    });
+    lander_tests::signal(first.id(), "INT");
+    let status = first.wait().unwrap();
+    assert!(
+        waiting,
+        "the first never waited: {:?}",
+        fs::read_to_string(&log)
+    );
+    let second = second.unwrap();
+    let said = stderr(&second);
+    assert!(!second.status.success(), "{said}");
+    assert!(
+        said.contains(&format!("another coordinator (process {})", first.id()))
+            && said.contains("--run-id"),
+        "{said}"
+    );
+    assert_eq!(status.code(), Some(130));
+}

@@ -49,6 +49,17 @@ impl Iceoryx {
             SignalHandlingMode::Disabled,
         )?;
         node.try_cleanup_dead_nodes();
+        // After this one's node is made, so that of two started at once
+        // one sees the other, whichever made its node second.
+        if let Some(pid) = iox::other_alive_named(&node)? {
+            return Err(iox::IpcError {
+                what: format!("run {run_id}"),
+                detail: format!(
+                    "another coordinator (process {pid}) runs it on this host; give this one another --run-id"
+                ),
+            }
+            .into());
+        }
         let register = iox::register_service(&node, &names.register())?
             .subscriber_builder()
             .create()
