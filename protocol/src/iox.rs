@@ -52,8 +52,11 @@ pub fn check_run_id(id: &str) -> Result<(), String> {
     if ok {
         Ok(())
     } else {
+        // A long id is shown cut: it may be a whole file pasted in.
+        let shown: String = id.chars().take(MAX_RUN_ID + 1).collect();
+        let cut = if shown.len() < id.len() { "…" } else { "" };
         Err(format!(
-            "must be 1 to {MAX_RUN_ID} letters, digits, '-' or '_' (got {id:?})"
+            "must be 1 to {MAX_RUN_ID} letters, digits, '-' or '_' (got {shown:?}{cut})"
         ))
     }
 }
@@ -290,4 +293,23 @@ pub fn register_service(
         .history_size(0)
         .open_or_create()
         .map_err(fail(format!("opening {name}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_run_id_is_checked_and_a_long_one_shown_cut() {
+        assert_eq!(check_run_id("run-1_a"), Ok(()));
+        for bad in ["", "a b", "a/b", &"x".repeat(MAX_RUN_ID + 1)] {
+            assert!(check_run_id(bad).is_err(), "{bad:?}");
+        }
+        let err = check_run_id(&"y".repeat(5000)).unwrap_err();
+        assert!(err.len() < 200, "{err}");
+        assert!(
+            err.ends_with(&format!("(got \"{}\"…)", "y".repeat(MAX_RUN_ID + 1))),
+            "{err}"
+        );
+    }
 }
