@@ -107,10 +107,14 @@ impl RunConfig {
     }
 }
 
-/// The most characters of a TOML file's line, or of a parse error's
-/// message, that an error shows: a file's one long line (a 1 MB value)
-/// would otherwise be printed whole.
+/// The most characters of a TOML file's line that an error quotes: a
+/// file's one long line (a 1 MB value) would otherwise be printed whole.
 const SHOWN_CHARS: usize = 120;
+
+/// The most characters of a line of a parse error's message: long enough
+/// for the list of a section's keys that an unknown key's message gives,
+/// short of a long value echoed whole.
+const MESSAGE_CHARS: usize = 1_000;
 
 /// A TOML parse error of `text` as the user reads it: where, the line
 /// around that place (clipped to [`SHOWN_CHARS`]) with a caret under it,
@@ -136,10 +140,14 @@ pub fn toml_error(text: &str, e: &toml::de::Error) -> String {
     )
 }
 
-/// Each line of `message` cut to at most [`SHOWN_CHARS`] characters, with
-/// `…` where it was cut: a value echoed in it may be a whole long line.
+/// Each line of `message` cut to at most [`MESSAGE_CHARS`] characters,
+/// with `…` where it was cut: a value echoed in it may be a whole long
+/// line.
 pub fn clipped(message: &str) -> String {
-    let lines: Vec<String> = message.lines().map(|l| clip(l, 0).0).collect();
+    let lines: Vec<String> = message
+        .lines()
+        .map(|l| clip_to(l, 0, MESSAGE_CHARS).0)
+        .collect();
     lines.join("\n")
 }
 
@@ -147,14 +155,18 @@ pub fn clipped(message: &str) -> String {
 /// at `at`, with `…` where it was cut, and where `at` falls in what is
 /// shown.
 fn clip(line: &str, at: usize) -> (String, usize) {
+    clip_to(line, at, SHOWN_CHARS)
+}
+
+/// `line` cut to at most `most` characters around the character at `at`,
+/// as [`clip`].
+fn clip_to(line: &str, at: usize, most: usize) -> (String, usize) {
     let chars: Vec<char> = line.chars().collect();
-    if chars.len() <= SHOWN_CHARS {
+    if chars.len() <= most {
         return (line.to_string(), at);
     }
-    let from = at
-        .saturating_sub(SHOWN_CHARS / 2)
-        .min(chars.len() - SHOWN_CHARS);
-    let to = from + SHOWN_CHARS;
+    let from = at.saturating_sub(most / 2).min(chars.len() - most);
+    let to = from + most;
     let mut shown: String = chars[from..to].iter().collect();
     let mut caret = at - from;
     if from > 0 {
@@ -315,10 +327,10 @@ mod shipped {
         let text = format!("[ga]\npopulation = \"{}\"\n", "a".repeat(1_000_000));
         let shown = parse_error(&text);
         assert!(
-            shown.len() < 600,
+            shown.len() < 1_400,
             "{} bytes: {}",
             shown.len(),
-            shown.chars().take(600).collect::<String>()
+            shown.chars().take(1_400).collect::<String>()
         );
         assert!(shown.contains("line 2"), "{shown}");
         // The place is near the line's start, so the quoted line (after its
@@ -328,6 +340,20 @@ mod shipped {
         assert_eq!(quoted.chars().count(), SHOWN_CHARS + 1, "{quoted}");
         assert!(quoted.ends_with("aa…"), "{quoted}");
         assert!(lines[4].starts_with("invalid type: string"), "{shown}");
-        assert_eq!(lines[4].chars().count(), SHOWN_CHARS + 1, "{}", lines[4]);
+        assert_eq!(lines[4].chars().count(), MESSAGE_CHARS + 1, "{}", lines[4]);
+    }
+
+    #[test]
+    fn an_unknown_key_is_shown_with_every_key_of_its_section() {
+        let shown = parse_error("[world]\ncolour = 1\n");
+        let keys = serde_json::to_value(World::default()).unwrap();
+        let keys = keys.as_object().unwrap();
+        assert!(keys.len() > 10, "{keys:?}");
+        for key in keys.keys() {
+            assert!(
+                shown.contains(&format!("`{key}`")),
+                "{key} missing: {shown}"
+            );
+        }
     }
 }
