@@ -272,16 +272,19 @@ fn folder_of(grid: &str, values: &[(String, Value)]) -> String {
         .collect()
 }
 
-/// The longest folder name a grid's setting is given, leaving room for
-/// [`Sweep::make_folders_unique`]'s suffixes within the 255 bytes most
-/// file systems take.
+/// The longest folder name most file systems take, in bytes.
+const NAME_MAX: usize = 255;
+
+/// What a grid's setting's folder name longer than [`NAME_MAX`] is cut
+/// to, leaving room for [`Sweep::make_folders_unique`]'s suffixes.
 const MAX_FOLDER: usize = 240;
 
-/// `folder`, cut to [`MAX_FOLDER`] bytes with the setting's `position`
-/// (from 0) appended where it is longer, so that cut names stay apart.
-/// `folder_of` leaves only ASCII, so any byte is a place to cut.
+/// `folder`, where it is longer than [`NAME_MAX`], cut to [`MAX_FOLDER`]
+/// bytes with the setting's `position` (from 0) appended, so that cut
+/// names stay apart; shorter names are kept as they are. `folder_of`
+/// leaves only ASCII, so any byte is a place to cut.
 fn fitted(folder: String, position: usize) -> String {
-    if folder.len() <= MAX_FOLDER {
+    if folder.len() <= NAME_MAX {
         return folder;
     }
     let mark = format!("-{}", position + 1);
@@ -308,7 +311,7 @@ fn read_grids(grids: Value, base: &Experiment) -> Result<Vec<Grid>, String> {
         if keyed.is_empty() {
             return Err(format!("{at}: names no keys"));
         }
-        once_each(&keyed).map_err(|key| format!("{at}, key '{key}': {GIVEN_TWICE}"))?;
+        once_each(&keyed).map_err(|key| format!("{at}, key '{key}': {}", given_twice(&key)))?;
         let mut keys = Vec::new();
         let mut values = Vec::new();
         for (key, value) in keyed {
@@ -349,7 +352,7 @@ fn read_listed(listed: Value, base: &Experiment) -> Result<Vec<Listed>, String> 
         }
         let values = flatten(table);
         once_each(&values)
-            .map_err(|key| format!("setting '{name}', key '{key}': {GIVEN_TWICE}"))?;
+            .map_err(|key| format!("setting '{name}', key '{key}': {}", given_twice(&key)))?;
         for (key, _) in &values {
             check_key(&full, key).map_err(|e| format!("setting '{name}', key '{key}': {e}"))?;
         }
@@ -376,8 +379,11 @@ fn flatten(table: Table) -> Vec<(String, Value)> {
     out
 }
 
-const GIVEN_TWICE: &str =
-    "given twice (as \"guided.epsilon\", guided.epsilon or a [guided] table, which say the same)";
+/// What is wrong with `key` given twice: its forms say the same.
+fn given_twice(key: &str) -> String {
+    let (section, field) = key.split_once('.').unwrap_or((key, ""));
+    format!("given twice (\"{key}\", {key} and {field} in a [{section}] table say the same)")
+}
 
 /// Each key once: the forms [`flatten`] reads say the same, so a key given
 /// in two of them would set one value and name the other. Returns a key
