@@ -90,12 +90,12 @@ impl GaParams {
             "ga.population",
             genes <= MAX_GENES,
             &format!(
-                "times ga.genome_length must be at most 100,000,000 genes a \
-                 generation (got {} × {} = {genes}); a run keeps about {BYTES_PER_GENE} \
-                 bytes a gene, so this one would need about {} GB",
+                "times ga.genome_length must be at most {MAX_GENES} genes a generation \
+                 (got {} × {} = {genes}); a run keeps about {BYTES_PER_GENE} bytes a \
+                 gene, so this one would need about {} MB",
                 self.population,
                 self.genome_length,
-                (genes * BYTES_PER_GENE).div_ceil(1_000_000_000)
+                (genes * BYTES_PER_GENE).div_ceil(1_000_000)
             ),
         )?;
         check(

@@ -504,7 +504,7 @@ fn an_out_that_is_a_file_is_refused_by_every_command_that_writes_a_folder() {
         assert!(!ran.status.success(), "{args:?}");
         let said = stderr(&ran);
         assert!(
-            said.contains(&format!("--out {out}: not a folder")),
+            said.contains(&format!("{out} is not a folder; give --out")),
             "{said}"
         );
     }

@@ -97,7 +97,10 @@ enum Command {
 /// "File exists" or "Not a directory".
 pub(super) fn out_folder(out: &std::path::Path) -> anyhow::Result<()> {
     if out.exists() && !out.is_dir() {
-        anyhow::bail!("--out {}: not a folder", out.display());
+        anyhow::bail!(
+            "{} is not a folder; give --out a folder for the results",
+            out.display()
+        );
     }
     Ok(())
 }

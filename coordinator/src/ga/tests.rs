@@ -225,8 +225,8 @@ fn a_generation_of_more_than_the_most_genes_is_refused_with_its_memory() {
     assert_eq!(e.field, "ga.population");
     assert_eq!(
         e.problem,
-        "times ga.genome_length must be at most 100,000,000 genes a generation \
+        "times ga.genome_length must be at most 100000000 genes a generation \
          (got 1000000 × 10000 = 10000000000); a run keeps about 5 bytes a gene, \
-         so this one would need about 50 GB"
+         so this one would need about 50000 MB"
     );
 }
