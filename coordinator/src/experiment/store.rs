@@ -313,6 +313,8 @@ mod tests {
         seed_2.seed = 2;
         let mut moved = record(Method::Ga, 1);
         moved.x0 = -5000.0;
+        let mut padded = record(Method::Ga, 1);
+        padded.pad_x += 1.0;
         let mut short = record(Method::Ga, 1);
         short.fitness.pop();
         for (wrong, at, said) in [
@@ -324,6 +326,7 @@ mod tests {
             ),
             (seed_2, file.clone(), "its seed is 2"),
             (moved, file.clone(), "it starts at x0 -5000"),
+            (padded, file.clone(), "over the pad at"),
             (
                 short,
                 file.clone(),
