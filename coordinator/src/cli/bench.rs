@@ -32,9 +32,10 @@ pub struct BenchArgs {
     /// Workers (and threads) for the parallel modes.
     #[arg(long, default_value_t = 2)]
     workers: usize,
-    /// Generations in the workload [default: as many as the first trial
-    /// flies, so that the workload is `lander run --seed S --trial T`'s; 60
-    /// with --stress].
+    /// Generations in the workload, which keeps each of them and may hold
+    /// at most 4 GB [default: as many as the first trial flies, so that
+    /// the workload is `lander run --seed S --trial T`'s; 60 with
+    /// --stress].
     #[arg(long)]
     generations: Option<u64>,
     /// Genomes per generation [default: 100, or 10000 with --stress].

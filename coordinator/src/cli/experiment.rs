@@ -38,8 +38,8 @@ pub struct ExperimentArgs {
     /// In-process evaluation threads; 0 means one per core.
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// GA trials stepped together, a generation of each per round
-    /// [default: 4 per spawned worker, or per evaluation thread without
+    /// GA trials stepped together, a generation of each per round, fewer
+    /// where their generations would hold over 4 × 10^8 genes [default: 4 per spawned worker, or per evaluation thread without
     /// --workers (so per local core with --attach)].
     #[arg(long, value_name = "N")]
     in_flight: Option<usize>,

@@ -74,8 +74,9 @@ pub struct TransportArgs {
     /// generation, so that it is spread over all of them [default: 1].
     #[arg(long, value_name = "N", requires = "attach")]
     min_workers: Option<usize>,
-    /// The run id that names this run's iceoryx2 services or zenoh keys
-    /// [default: random].
+    /// The run id that names this run's iceoryx2 services or zenoh keys;
+    /// over iceoryx2, refused while another coordinator on this host runs
+    /// it [default: random].
     #[arg(long, value_name = "ID")]
     run_id: Option<String>,
     /// Seconds a worker may take over one chunk before it goes to another,
