@@ -55,9 +55,9 @@ pub enum WorkloadError {
         "the workload would hold more than {} GB after {steps} generations \
          (each generation's genomes and their parents are kept); ask for \
          fewer --generations, a smaller --population or fewer --in-flight",
-        MAX_BYTES / 1_000_000_000
+        most / 1_000_000_000
     )]
-    TooLarge { steps: usize },
+    TooLarge { steps: usize, most: u64 },
 }
 
 /// About what a genome of `genes` genes takes kept: its genes, two bytes
@@ -88,6 +88,18 @@ impl Workload {
         in_flight: usize,
         stop: &Stop,
     ) -> Result<Workload, WorkloadError> {
+        Workload::within(cfg, pass, generations, in_flight, stop, MAX_BYTES)
+    }
+
+    /// [`Workload::new`], holding at most `most` bytes.
+    fn within(
+        cfg: &RunConfig,
+        pass: Pass,
+        generations: Option<u64>,
+        in_flight: usize,
+        stop: &Stop,
+        most: u64,
+    ) -> Result<Workload, WorkloadError> {
         let cfg = RunConfig {
             method: pass.method(),
             ..cfg.clone()
@@ -97,8 +109,11 @@ impl Workload {
         if let Some(n) = generations {
             let step =
                 2 * (in_flight * cfg.ga.population) as u64 * genome_bytes(cfg.ga.genome_length);
-            if n.saturating_mul(step) > MAX_BYTES {
-                return Err(WorkloadError::TooLarge { steps: n as usize });
+            if n.saturating_mul(step) > most {
+                return Err(WorkloadError::TooLarge {
+                    steps: n as usize,
+                    most,
+                });
             }
         }
         let mut held = 0;
@@ -123,8 +138,11 @@ impl Workload {
                 .map(Flown::next)
                 .collect::<Result<Vec<_>, _>>()?;
             held += step.iter().map(Population::bytes).sum::<u64>();
-            if held > MAX_BYTES {
-                return Err(WorkloadError::TooLarge { steps: steps.len() });
+            if held > most {
+                return Err(WorkloadError::TooLarge {
+                    steps: steps.len(),
+                    most,
+                });
             }
             steps.push(step);
         }
@@ -299,13 +317,32 @@ mod tests {
         )
         .err()
         .unwrap();
-        assert!(matches!(err, WorkloadError::TooLarge { steps: 1_000_000 }));
+        assert!(matches!(
+            err,
+            WorkloadError::TooLarge {
+                steps: 1_000_000,
+                most: MAX_BYTES
+            }
+        ));
         assert!(
             err.to_string()
                 .contains("more than 4 GB after 1000000 generations"),
             "{err}"
         );
         assert!(Workload::new(&small(), Pass::Fly, Some(3), 2, &Stop::new()).is_ok());
+    }
+
+    #[test]
+    fn a_workload_without_a_count_is_refused_as_it_grows_past_the_bound() {
+        // 6 genomes of 50 genes: 888 bytes a generation, its parents as
+        // much again from the second; the first trial flies 2 generations.
+        let step = 6 * genome_bytes(50);
+        let fly = |most| Workload::within(&small(), Pass::Fly, None, 1, &Stop::new(), most);
+        assert!(matches!(
+            fly(2 * step),
+            Err(WorkloadError::TooLarge { steps: 1, .. })
+        ));
+        assert_eq!(fly(3 * step).unwrap().steps.len(), 2);
     }
 
     #[test]
