@@ -217,31 +217,45 @@ pub(crate) fn difference_from_file(
 ) -> Result<Option<String>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
     let stored: serde_json::Value = serde_json::from_str(&text).map_err(|e| e.to_string())?;
-    Ok(first_difference(&stored, current, "").map(|field| {
-        match (leaf(&stored, &field), leaf(current, &field)) {
-            (Some(was), Some(is)) => format!("{field}: {was} there, {is} here"),
-            _ => format!("{field} differs"),
-        }
-    }))
+    Ok(difference(&stored, current, "").map(|d| d.shown()))
 }
 
-/// The value at a dotted `field` of `value`, shown, where it is a number,
-/// a string or a boolean; `None` for a table or list (whose difference
-/// the field names) or where a key holds a dot itself.
-fn leaf(value: &serde_json::Value, field: &str) -> Option<String> {
-    let mut at = value;
-    for key in field.split('.') {
-        at = at.get(key)?;
-    }
-    match at {
-        serde_json::Value::Array(_) | serde_json::Value::Object(_) => None,
-        shown => Some(shown.to_string()),
-    }
-}
-
-/// The dotted path of the first field where two JSON values differ.
+/// The dotted path of the first field where two JSON values differ
+/// (`ga.population`, `grids[0].values[1]`).
 pub fn first_difference(a: &serde_json::Value, b: &serde_json::Value, at: &str) -> Option<String> {
-    use serde_json::Value::Object;
+    difference(a, b, at).map(|d| d.at)
+}
+
+/// Where two JSON values first differ, and what each holds there (`None`
+/// where one has no such field).
+struct Difference<'a> {
+    at: String,
+    was: Option<&'a serde_json::Value>,
+    is: Option<&'a serde_json::Value>,
+}
+
+impl Difference<'_> {
+    /// "ga.population: 12 there, 7 here" where both are plain values;
+    /// "grids differs" otherwise.
+    fn shown(&self) -> String {
+        use serde_json::Value::{Array, Object};
+        match (self.was, self.is) {
+            (Some(was), Some(is))
+                if !matches!(was, Array(_) | Object(_)) && !matches!(is, Array(_) | Object(_)) =>
+            {
+                format!("{}: {was} there, {is} here", self.at)
+            }
+            _ => format!("{} differs", self.at),
+        }
+    }
+}
+
+fn difference<'a>(
+    a: &'a serde_json::Value,
+    b: &'a serde_json::Value,
+    at: &str,
+) -> Option<Difference<'a>> {
+    use serde_json::Value::{Array, Object};
     match (a, b) {
         (Object(x), Object(y)) => {
             let keys = x.keys().chain(y.keys().filter(|k| !x.contains_key(*k)));
@@ -253,20 +267,29 @@ pub fn first_difference(a: &serde_json::Value, b: &serde_json::Value, at: &str) 
                 };
                 match (x.get(key), y.get(key)) {
                     (Some(p), Some(q)) => {
-                        if let Some(d) = first_difference(p, q, &here) {
+                        if let Some(d) = difference(p, q, &here) {
                             return Some(d);
                         }
                     }
-                    _ => return Some(here),
+                    (was, is) => return Some(Difference { at: here, was, is }),
                 }
             }
             None
         }
+        (Array(x), Array(y)) if x.len() == y.len() => x
+            .iter()
+            .zip(y)
+            .enumerate()
+            .find_map(|(i, (p, q))| difference(p, q, &format!("{at}[{i}]"))),
         _ if a == b => None,
-        _ => Some(if at.is_empty() {
-            "the file".into()
-        } else {
-            at.into()
+        _ => Some(Difference {
+            at: if at.is_empty() {
+                "the file".into()
+            } else {
+                at.into()
+            },
+            was: Some(a),
+            is: Some(b),
         }),
     }
 }
@@ -350,6 +373,26 @@ mod tests {
         }
         store.save(&record(Method::Ga, 1)).unwrap();
         assert_eq!(store.finished().unwrap().len(), 1);
+    }
+
+    #[test]
+    fn a_difference_is_found_inside_lists_and_shown_with_both_values() {
+        use serde_json::json;
+        let there = json!({"grids": [{"name": "e", "values": [[0.0, 0.1]]}], "trials": 3});
+        let here = json!({"grids": [{"name": "e", "values": [[0.0, 0.2]]}], "trials": 3});
+        let d = difference(&there, &here, "").unwrap();
+        assert_eq!(d.shown(), "grids[0].values[0][1]: 0.1 there, 0.2 here");
+        let longer = json!({"grids": [], "trials": 3});
+        assert_eq!(
+            difference(&there, &longer, "").unwrap().shown(),
+            "grids differs"
+        );
+        let fewer = json!({"grids": [{"name": "e", "values": [[0.0, 0.1]]}]});
+        assert_eq!(
+            difference(&there, &fewer, "").unwrap().shown(),
+            "trials differs"
+        );
+        assert!(difference(&there, &there.clone(), "").is_none());
     }
 
     #[test]
