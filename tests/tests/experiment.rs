@@ -182,6 +182,22 @@ fn a_small_experiment_writes_every_file_and_they_agree() {
     ]);
     assert!(replay.status.success(), "{}", stderr(&replay));
     assert!(fs::read_to_string(&svg).unwrap().contains("<svg"));
+
+    // Without experiment.json, the folder is not taken for a run's.
+    fs::remove_file(out.join("experiment.json")).unwrap();
+    let replay = lander(&[
+        "replay",
+        "--run",
+        out.to_str().unwrap(),
+        "--out",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(!replay.status.success());
+    assert!(
+        stderr(&replay).contains("holds trial records (trials/) but no experiment.json"),
+        "{}",
+        stderr(&replay)
+    );
 }
 
 #[test]

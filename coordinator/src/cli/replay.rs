@@ -150,6 +150,13 @@ fn from_folder(dir: &Path, args: &ReplayArgs) -> anyhow::Result<Recording> {
             dir.display()
         );
     }
+    if dir.join("trials").is_dir() {
+        bail!(
+            "{} holds trial records (trials/) but no experiment.json, which says how \
+             they were flown; it is not a whole experiment's folder",
+            dir.display()
+        );
+    }
     if dir.join("generations.jsonl").exists() {
         bail!(
             "{} holds a run that did not finish (generations.jsonl, but no best.json)",
