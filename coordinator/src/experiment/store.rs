@@ -31,18 +31,10 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> StoreError + '_ {
 
 pub struct Store {
     dir: PathBuf,
-    /// The experiment whose trials a record must be one of; none for a
-    /// folder only read.
-    expects: Option<Expected>,
-}
-
-/// What a finished trial's record must say to be one of the experiment's.
-struct Expected {
-    seed: u64,
-    trials: u64,
-    methods: Vec<lander_model::Method>,
-    /// Each trial's start and first pad follow from it.
-    experiment: Experiment,
+    /// The experiment whose trials a record must be one of (its seed, its
+    /// methods and trials, each trial's start); none for a folder only
+    /// read.
+    expects: Option<Experiment>,
 }
 
 impl Store {
@@ -51,12 +43,7 @@ impl Store {
     pub fn open(dir: &Path, exp: &Experiment, resume: bool) -> Result<Store, StoreError> {
         let store = Store {
             dir: dir.to_path_buf(),
-            expects: Some(Expected {
-                seed: exp.seed,
-                trials: exp.trials,
-                methods: exp.methods.clone(),
-                experiment: exp.clone(),
-            }),
+            expects: Some(exp.clone()),
         };
         refuse_others(dir, Results::Experiment)?;
         let definition = dir.join(EXPERIMENT);
@@ -187,10 +174,7 @@ impl Store {
                     .join(", ")
             ));
         }
-        let env = expects
-            .experiment
-            .config(record.method, record.trial)
-            .env(0);
+        let env = expects.config(record.method, record.trial).env(0);
         if record.x0 != env.x0 || record.pad_x != env.pad_x {
             return Some(format!(
                 "it starts at x0 {} over the pad at {}, where the trial starts at {} over {}",
