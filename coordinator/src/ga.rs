@@ -73,6 +73,11 @@ pub const MAX_GENES: usize = 100_000_000;
 pub const BYTES_PER_GENE: usize = 5;
 
 impl GaParams {
+    /// The genes of one generation: `population × genome_length`.
+    pub fn genes(&self) -> usize {
+        self.population * self.genome_length
+    }
+
     /// Checks every field, naming the first out of range.
     pub fn check(&self) -> Result<(), ParamError> {
         check(
@@ -85,7 +90,7 @@ impl GaParams {
             (1..=10_000).contains(&self.genome_length),
             "must be 1 to 10,000",
         )?;
-        let genes = self.population * self.genome_length;
+        let genes = self.genes();
         check(
             "ga.population",
             genes <= MAX_GENES,

@@ -124,11 +124,6 @@ struct InFlight {
     genes: usize,
 }
 
-/// The genes of one generation of a trial.
-fn genes(cfg: &RunConfig) -> usize {
-    cfg.ga.population * cfg.ga.genome_length
-}
-
 fn evolve<K: Copy + Send>(
     tasks: &[&Task<K>],
     backend: &mut dyn Evaluator,
@@ -138,13 +133,13 @@ fn evolve<K: Copy + Send>(
     let mut queue = tasks.iter().peekable();
     let mut running: Vec<Running<K>> = Vec::new();
     loop {
-        let mut held: usize = running.iter().map(|r| genes(r.run.config())).sum();
+        let mut held: usize = running.iter().map(|r| r.run.config().ga.genes()).sum();
         while running.len() < most.trials {
-            let room = |t: &&&Task<K>| held == 0 || held + genes(&t.cfg) <= most.genes;
+            let room = |t: &&&Task<K>| held == 0 || held + t.cfg.ga.genes() <= most.genes;
             let Some(task) = queue.next_if(room) else {
                 break;
             };
-            held += genes(&task.cfg);
+            held += task.cfg.ga.genes();
             progress.started(task.key, &task.cfg);
             running.push(Running {
                 key: task.key,
