@@ -173,30 +173,27 @@ fn a_small_experiment_writes_every_file_and_they_agree() {
 
     // The best landing replays from the folder.
     let svg = dir.path().join("best.svg");
-    let replay = lander(&[
-        "replay",
-        "--run",
-        out.to_str().unwrap(),
-        "--out",
-        svg.to_str().unwrap(),
-    ]);
-    assert!(replay.status.success(), "{}", stderr(&replay));
+    let replay = || {
+        lander(&[
+            "replay",
+            "--run",
+            out.to_str().unwrap(),
+            "--out",
+            svg.to_str().unwrap(),
+        ])
+    };
+    let replayed = replay();
+    assert!(replayed.status.success(), "{}", stderr(&replayed));
     assert!(fs::read_to_string(&svg).unwrap().contains("<svg"));
 
     // Without experiment.json, the folder is not taken for a run's.
     fs::remove_file(out.join("experiment.json")).unwrap();
-    let replay = lander(&[
-        "replay",
-        "--run",
-        out.to_str().unwrap(),
-        "--out",
-        svg.to_str().unwrap(),
-    ]);
-    assert!(!replay.status.success());
+    let refused = replay();
+    assert!(!refused.status.success());
     assert!(
-        stderr(&replay).contains("holds trial records (trials/) but no experiment.json"),
+        stderr(&refused).contains("holds trial records (trials/) but no experiment.json"),
         "{}",
-        stderr(&replay)
+        stderr(&refused)
     );
 }
 

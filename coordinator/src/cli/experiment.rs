@@ -114,14 +114,8 @@ fn experiment_watched(
     };
     let todo = experiment_tasks(&exp, &todo);
     run(&todo, backend.as_mut(), in_flight, &mut progress).with_context(|| {
-        let trials = args
-            .trials
-            .map_or(String::new(), |t| format!(" --trials {t}"));
-        format!(
-            "the experiment stopped; `lander experiment {} --out {} --resume{trials}` finishes it",
-            args.file.display(),
-            out.display()
-        )
+        let again = super::resume_command("experiment", &args.file, &out, args.trials, false);
+        format!("the experiment stopped; `{again}` finishes it")
     })?;
     say_busy(backend.as_ref(), args.transport.workers, since);
     drop(backend);

@@ -105,6 +105,30 @@ pub(super) fn out_folder(out: &std::path::Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The command that finishes an interrupted `lander experiment` or `lander
+/// sweep` (`command`) of `file` in `out`, with the flags that change what
+/// it runs: without them the folder would be refused as another's.
+pub(super) fn resume_command(
+    command: &str,
+    file: &std::path::Path,
+    out: &std::path::Path,
+    trials: Option<u64>,
+    allow_large: bool,
+) -> String {
+    let mut again = format!(
+        "lander {command} {} --out {} --resume",
+        file.display(),
+        out.display()
+    );
+    if let Some(trials) = trials {
+        again.push_str(&format!(" --trials {trials}"));
+    }
+    if allow_large {
+        again.push_str(" --allow-large");
+    }
+    again
+}
+
 /// Runs a subcommand; those that evaluate stop when `stop` is asked.
 pub fn dispatch(cli: Cli, stop: &Stop) -> anyhow::Result<()> {
     match cli.command {

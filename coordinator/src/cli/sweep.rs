@@ -141,17 +141,8 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
     };
     lander_coordinator::experiment::run(&plan.tasks, backend.as_mut(), in_flight, &mut progress)
         .with_context(|| {
-            let mut again = format!(
-                "lander sweep {} --out {} --resume",
-                args.file.display(),
-                out.display()
-            );
-            if let Some(trials) = args.trials {
-                again.push_str(&format!(" --trials {trials}"));
-            }
-            if args.allow_large {
-                again.push_str(" --allow-large");
-            }
+            let again =
+                super::resume_command("sweep", &args.file, &out, args.trials, args.allow_large);
             format!("the sweep stopped; `{again}` finishes it")
         })?;
     say_busy(backend.as_ref(), args.transport.workers, since);
