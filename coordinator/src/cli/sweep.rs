@@ -48,8 +48,9 @@ pub struct SweepArgs {
     #[arg(long, default_value_t = 0)]
     threads: usize,
     /// GA trials stepped together, a generation of each per round, fewer
-    /// where their generations would hold over 4 × 10^8 genes [default: 32 per spawned worker, or per evaluation thread without
-    /// --workers (so per local core with --attach)].
+    /// where their generations would hold over 4 × 10^8 genes [default:
+    /// 32 per spawned worker, or per evaluation thread without --workers
+    /// (so per local core with --attach)].
     #[arg(long, value_name = "N")]
     in_flight: Option<usize>,
     /// Print the sweep's table as one JSON object on stdout.
