@@ -176,8 +176,19 @@ fn workers_on_another_host_survive_a_cut_link() {
         fs::read(&log).unwrap() == calm_log,
         "generations.jsonl differs"
     );
-    for w in workers {
+    for mut w in workers {
+        // A worker that never leaves would hang the test; fail instead,
+        // with what it said.
+        let left = wait_until(60, || w.try_wait().unwrap().is_some());
+        if !left {
+            let _ = w.kill();
+        }
         let w = w.wait_with_output().unwrap();
+        assert!(
+            left,
+            "a worker had not left a minute after the run ended: {}",
+            stderr(&w)
+        );
         assert!(w.status.success(), "{}", stderr(&w));
     }
 }
