@@ -39,7 +39,7 @@ pub enum NetError {
 pub fn fail<E: std::fmt::Display>(what: &str) -> impl Fn(E) -> NetError + '_ {
     move |e| NetError::Zenoh {
         what: what.to_string(),
-        detail: e.to_string(),
+        detail: tidy(&e.to_string()),
     }
 }
 
@@ -50,9 +50,9 @@ fn set(cfg: &mut Config, key: &str, value: &str) -> Result<(), NetError> {
     })
 }
 
-/// The part of a zenoh configuration error meant for people: its message
-/// without the debug wrapping and the source location zenoh appends.
-fn tidy(error: &str) -> String {
+/// The part of a zenoh error meant for people: its message without the
+/// debug wrapping and the source location zenoh appends.
+pub fn tidy(error: &str) -> String {
     let message = error
         .split_once("msg: \"")
         .and_then(|(_, rest)| rest.split_once('"'))

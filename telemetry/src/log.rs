@@ -7,7 +7,8 @@
 //!   `fields` (the message and any structured values).
 //! - `RUST_LOG` filters, as `tracing-subscriber`'s `EnvFilter` reads it.
 //!   Unset, lander's own crates log at `info` and everything else,
-//!   zenoh among it, at `warn`.
+//!   zenoh among it, at `warn`, but for zenoh's warning at each failed
+//!   attempt to connect (a waiting worker says it once, itself).
 //!
 //! Progress bars are drawn on stderr too. Every bar is added to [`bars`],
 //! and each log line is written with the bars lifted (`suspend`), so
@@ -57,6 +58,9 @@ fn default_filter(quiet: bool) -> String {
     ]
     .iter()
     .fold("warn".to_string(), |f, c| format!("{f},{c}={ours}"))
+        // zenoh warns of every failed attempt to connect; a worker waiting
+        // for its coordinator retries, and says so itself, once.
+        + ",zenoh::net::runtime::orchestrator=error"
 }
 
 /// Installs the subscriber for the process. `program` starts every text
@@ -177,6 +181,10 @@ mod tests {
         assert!(f.starts_with("warn,"), "{f}");
         assert!(f.contains("lander_coordinator=info"), "{f}");
         assert!(default_filter(true).contains("lander_worker=warn"));
+        assert!(
+            f.ends_with(",zenoh::net::runtime::orchestrator=error"),
+            "{f}"
+        );
         EnvFilter::try_new(&f).unwrap();
     }
 }

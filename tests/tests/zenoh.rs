@@ -171,7 +171,12 @@ fn a_worker_with_wrong_credentials_is_refused_and_the_run_is_unaffected() {
             .spawn()
             .unwrap()
     };
-    let stranger = worker(&bad);
+    let stranger_log = dir.path().join("stranger.log");
+    let stranger = zenoh_worker(&iox, &run_id, &ep)
+        .args(["--credentials", bad.to_str().unwrap()])
+        .stderr(fs::File::create(&stranger_log).unwrap())
+        .spawn()
+        .unwrap();
     let member = worker(&good);
     let out = coordinator.wait_with_output().unwrap();
     let got = results(&out, &out_dir);
@@ -185,11 +190,15 @@ fn a_worker_with_wrong_credentials_is_refused_and_the_run_is_unaffected() {
         "{}",
         stderr(&member)
     );
+    // Its attempt refused, the stranger says so (a signal during an
+    // attempt stops it before it ends).
+    let said = || fs::read_to_string(&stranger_log).unwrap_or_default();
+    let refused = wait_until(60, || said().contains("cannot reach a coordinator"));
     signal(stranger.id(), "TERM");
-    let stranger = stranger.wait_with_output().unwrap();
-    let said = stderr(&stranger);
+    stranger.wait_with_output().unwrap();
+    let said = said();
     assert!(!said.contains("serving run"), "the stranger joined: {said}");
-    assert!(said.contains("cannot reach a coordinator"), "{said}");
+    assert!(refused, "{said}");
 }
 
 /// How many jobs a worker said it answered as it left.
@@ -433,5 +442,39 @@ fn malformed_frames_are_refused_counted_and_the_worker_serves_on() {
     assert!(
         said.contains("rejected frame #1") && said.contains("rejected frame #5"),
         "{said}"
+    );
+}
+
+#[test]
+fn a_worker_with_no_coordinator_says_so_once_and_stops_on_a_signal() {
+    let iox = Iox::new("zenoh_alone");
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("worker.log");
+    // Nothing listens at this endpoint: every attempt to connect fails.
+    let mut worker = zenoh_worker(&iox, "alone", &endpoint(6))
+        .stderr(fs::File::create(&log).unwrap())
+        .spawn()
+        .unwrap();
+    let said = || fs::read_to_string(&log).unwrap_or_default();
+    assert!(
+        wait_until(60, || said().contains("cannot reach a coordinator")),
+        "the worker did not say it cannot reach its coordinator: {}",
+        said()
+    );
+    // A second attempt under way: the warning is not repeated.
+    assert!(
+        wait_until(10, || worker.try_wait().unwrap().is_none()),
+        "the worker left by itself"
+    );
+    std::thread::sleep(std::time::Duration::from_secs(3));
+    signal(worker.id(), "TERM");
+    let status = worker.wait().unwrap();
+    let said = said();
+    assert!(status.success(), "{said}");
+    assert!(said.contains("stopped by signal"), "{said}");
+    assert_eq!(said.matches("Unable to connect").count(), 1, "{said}");
+    assert!(
+        !said.contains(".rs:"),
+        "a source location was shown: {said}"
     );
 }

@@ -46,27 +46,73 @@ fn connect(
     }
     let mut told = false;
     loop {
-        if stop.load(Ordering::Relaxed) {
+        let Some(opened) = open(&config, stop) else {
             return Ok(None);
-        }
-        match zenoh::open(config.clone()).wait() {
+        };
+        match opened {
             Ok(session) => return Ok(Some(session)),
             Err(e) => {
                 if !told {
                     say(
                         Note::Warning,
                         &format!(
-                            "cannot reach a coordinator at {}: {e}; retrying \
+                            "cannot reach a coordinator at {}: {}; retrying \
                              (is it running, and are the credentials right?)",
-                            options.connect.join(", ")
+                            options.connect.join(", "),
+                            net::tidy(&e.to_string())
                         ),
                     );
                     told = true;
                 }
-                std::thread::sleep(Duration::from_millis(500));
+                if stopped_within(stop, RETRY) {
+                    return Ok(None);
+                }
             }
         }
     }
+}
+
+/// How long the worker waits between attempts to reach its coordinator.
+const RETRY: Duration = Duration::from_millis(500);
+
+/// One attempt to open a session, `None` if `stop` is raised first: an
+/// attempt waits up to the connect timeout, and a signal should not.
+// On its own thread, so that this one can watch `stop`; a thread left
+// opening when the worker stops ends with the process.
+fn open(config: &zenoh::Config, stop: &AtomicBool) -> Option<zenoh::Result<Session>> {
+    let (sent, opened) = std::sync::mpsc::sync_channel(1);
+    let config = config.clone();
+    std::thread::spawn(move || {
+        let _ = sent.send(zenoh::open(config).wait());
+    });
+    loop {
+        if stop.load(Ordering::Relaxed) {
+            return None;
+        }
+        match opened.recv_timeout(WATCH) {
+            Ok(result) => return Some(result),
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+            // The opening thread panicked: no session.
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                return Some(Err("the thread opening the session failed".into()))
+            }
+        }
+    }
+}
+
+/// How often a waiting worker looks at `stop`.
+const WATCH: Duration = Duration::from_millis(50);
+
+/// Sleeps for `time`, waking to look at `stop`; true if it was raised.
+fn stopped_within(stop: &AtomicBool, time: Duration) -> bool {
+    let until = std::time::Instant::now() + time;
+    while std::time::Instant::now() < until {
+        if stop.load(Ordering::Relaxed) {
+            return true;
+        }
+        std::thread::sleep(WATCH);
+    }
+    stop.load(Ordering::Relaxed)
 }
 
 fn serve_session(
