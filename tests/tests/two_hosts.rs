@@ -132,6 +132,12 @@ fn workers_on_another_host_survive_a_cut_link() {
             "zenoh",
             "--listen",
             &listen,
+            // Both workers join before the first generation, so both are
+            // there when the link is cut, and both see the run end: a
+            // worker that joined only after the run would wait for its
+            // coordinator for ever, as workers do.
+            "--min-workers",
+            "2",
         ])
         .args(["--users", users.to_str().unwrap()])
         .stdout(Stdio::piped())
