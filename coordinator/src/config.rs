@@ -264,6 +264,22 @@ mod tests {
                 "[world]\nthrust = -350",
                 "world.thrust must not be negative",
             ),
+            // R infinite for some flight: Q(λ)'s values became NaN.
+            (
+                "[guided]\nr = 1e308",
+                "guided.r must be from -1e12 to 1e12 (got 1e308)",
+            ),
+            (
+                "[guided]\nw_y = 1e-300",
+                "guided.w_y must be at least 1e-12",
+            ),
+            ("[guided]\nw_t = -6", "guided.w_t must not be negative"),
+            // The value given, not its size.
+            (
+                "[scoring]\nw1 = -inf",
+                "scoring.w1 must be a finite number (got -inf)",
+            ),
+            ("[scoring]\nw1 = -2e12", "(got -2000000000000.0)"),
         ] {
             let err = parse(text).unwrap_err();
             assert!(err.contains(field), "{text:?} gave {err:?}");

@@ -15,7 +15,17 @@ pub fn at_most(field: &'static str, v: f64, max: f64) -> Result<(), ParamError> 
     check(
         field,
         v <= max,
-        &format!("must be at most {max:e} (got {v})"),
+        &format!("must be at most {max:e} (got {v:?})"),
+    )
+}
+
+/// Finite and no more than `size` either side of zero.
+pub fn within(field: &'static str, v: f64, size: f64) -> Result<(), ParamError> {
+    finite(field, v)?;
+    check(
+        field,
+        v.abs() <= size,
+        &format!("must be from -{size:e} to {size:e} (got {v:?})"),
     )
 }
 

@@ -2,7 +2,9 @@
 //! defaults. Each struct is plain data and deserialises from a TOML section
 //! in which every key is optional and unknown keys are errors.
 
-use crate::check::{at_most, check, finite, non_negative, positive, probability, ParamError};
+use crate::check::{
+    at_most, check, finite, non_negative, positive, probability, within, ParamError,
+};
 #[cfg(feature = "zero-copy")]
 use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
@@ -191,10 +193,10 @@ impl Scoring {
     pub fn check(&self) -> Result<(), ParamError> {
         let s = self;
         // Bounded so that fitness and R stay finite for any flight.
-        at_most("scoring.w1", s.w1.abs(), 1e12)?;
-        at_most("scoring.w2", s.w2.abs(), 1e12)?;
-        at_most("scoring.w3", s.w3.abs(), 1e12)?;
-        at_most("scoring.big_number", s.big_number.abs(), 1e15)?;
+        within("scoring.w1", s.w1, 1e12)?;
+        within("scoring.w2", s.w2, 1e12)?;
+        within("scoring.w3", s.w3, 1e12)?;
+        within("scoring.big_number", s.big_number, 1e15)?;
         non_negative("scoring.safe_distance", s.safe_distance)?;
         non_negative("scoring.safe_speed", s.safe_speed)?;
         non_negative("scoring.safe_rotation", s.safe_rotation)?;
@@ -240,11 +242,19 @@ impl GuideParams {
     pub fn check(&self) -> Result<(), ParamError> {
         let g = self;
         probability("guided.epsilon", g.epsilon)?;
+        // Bounded, as the weights of scoring are, so that R stays finite
+        // for any flight: an infinite R turns Q(λ)'s values into NaN.
         positive("guided.w_y", g.w_y)?;
+        check(
+            "guided.w_y",
+            g.w_y >= 1e-12,
+            &format!("must be at least 1e-12 (got {})", g.w_y),
+        )?;
         finite("guided.h1", g.h1)?;
-        finite("guided.r", g.r)?;
+        within("guided.r", g.r, 1e12)?;
         finite("guided.h2", g.h2)?;
-        finite("guided.w_t", g.w_t)?;
+        // Negative, `w_t·speed + 1` passes through zero.
+        non_negative("guided.w_t", g.w_t)?;
         Ok(())
     }
 }

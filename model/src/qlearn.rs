@@ -216,13 +216,19 @@ impl QLambda {
     }
 
     /// ε-greedy, with ties among the best broken at random: with all
-    /// weights at zero, a fixed tie-break would never explore.
+    /// weights at zero, a fixed tie-break would never explore. Values that
+    /// are not numbers never win; when no value is a number (the weights
+    /// overflowed, with a step size too large for the rewards) every
+    /// action ties.
     fn choose(&self, qs: &[f64], rng: &mut impl Rng) -> u8 {
         if rng.random::<f64>() < self.params.epsilon {
             return rng.random_range(0..qs.len() as u8);
         }
         let best = max(qs);
         let ties = qs.iter().filter(|&&q| q == best).count();
+        if ties == 0 {
+            return rng.random_range(0..qs.len() as u8);
+        }
         let pick = rng.random_range(0..ties);
         let mut tied = qs.iter().enumerate().filter(|&(_, &q)| q == best);
         tied.nth(pick).map_or(0, |(a, _)| a as u8)
@@ -371,6 +377,29 @@ mod tests {
             action = next;
         }
         faded
+    }
+
+    /// Values that are not numbers never win, and when none is a number
+    /// every action may be chosen: the learner flies on (it panicked,
+    /// finding no best to break a tie among).
+    #[test]
+    fn choosing_among_values_that_are_not_numbers() {
+        let agent = QLambda::new(
+            4,
+            QParams {
+                epsilon: 0.0,
+                ..params()
+            },
+        );
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for _ in 0..100 {
+            assert_eq!(agent.choose(&[f64::NAN, 2.0, f64::NAN, 1.0], &mut rng), 1);
+        }
+        let mut seen = [false; 4];
+        for _ in 0..200 {
+            seen[usize::from(agent.choose(&[f64::NAN; 4], &mut rng))] = true;
+        }
+        assert_eq!(seen, [true; 4]);
     }
 
     /// Learning and decaying in one pass learns what two passes learn, bit
