@@ -223,6 +223,49 @@ fn sigterm_saves_the_run_and_resume_finishes_it() {
     assert_eq!(outputs(&out, &resumed), whole);
 }
 
+/// One request can come as two signals: `timeout -s INT` signals the
+/// process and then its group. Two signals 10 ms apart stop the run as one
+/// does, saving it (the second, taken for another request, exited at once
+/// with nothing saved); a resume finishes it.
+#[test]
+fn a_signal_that_comes_twice_at_once_saves_the_run_as_one_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = config(dir.path());
+    let whole_dir = dir.path().join("whole");
+    let whole = outputs(
+        &whole_dir,
+        &lander(&args(&cfg, "guided", whole_dir.to_str().unwrap(), &[])),
+    );
+    let out = dir.path().join("run");
+    let out_s = out.to_str().unwrap();
+    let mut a = args(&cfg, "guided", out_s, &[]);
+    let n = a.len();
+    a[n - 1] = "0";
+    let child = Command::new(binary("lander"))
+        .args(&a)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    assert!(wait_until(60, || lines_in(&out.join("generations.jsonl")) >= 20));
+    let pid = child.id().to_string();
+    let twice = Command::new("sh")
+        .args(["-c", "kill -INT $0; sleep 0.01; kill -INT $0", &pid])
+        .status()
+        .unwrap();
+    assert!(twice.success());
+    let stopped = child.wait_with_output().unwrap();
+    assert_eq!(stopped.status.code(), Some(130), "{}", stderr(&stopped));
+    assert!(
+        !stderr(&stopped).contains("second signal"),
+        "{}",
+        stderr(&stopped)
+    );
+    assert!(out.join("checkpoint.bin").exists(), "{}", stderr(&stopped));
+    let resumed = lander(&["run", "--resume", out_s, "--json"]);
+    assert_eq!(outputs(&out, &resumed), whole);
+}
+
 #[test]
 fn bad_checkpoints_are_refused_and_nothing_is_overwritten() {
     let dir = tempfile::tempdir().unwrap();
