@@ -331,3 +331,48 @@ fn a_bad_metrics_address_or_a_port_in_use_is_an_error_at_start() {
         assert!(!said.contains("panicked"), "{bin} {args:?}: {said}");
     }
 }
+
+/// `bench --stress` serves the churned pool's metrics, where it served
+/// none and took any `--metrics` without a word; the comparison's own
+/// settings are refused with it.
+#[test]
+fn bench_stress_serves_its_pools_metrics_and_refuses_the_comparisons_settings() {
+    let iox = Iox::new("stress_metrics");
+    let addr = format!("127.0.0.1:{}", free_port());
+    let bench = iox
+        .command("lander")
+        .args(["bench", "--stress", "--soak", "600", "--generations", "5"])
+        .args([
+            "--population",
+            "300",
+            "--kill-rate",
+            "0",
+            "--metrics",
+            &addr,
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let dispatched = || {
+        http_get(&addr, "/metrics").is_ok_and(|t| {
+            t.lines()
+                .any(|l| l.starts_with("lander_chunks_dispatched_total ") && !l.ends_with(" 0"))
+        })
+    };
+    assert!(wait_until(60, dispatched), "no chunk counted at {addr}");
+    interrupt(bench);
+    for (flag, value) in [
+        ("--verify", "0.5"),
+        ("--transports", "zenoh"),
+        ("--rounds", "3"),
+    ] {
+        let out = iox.lander(&["bench", "--stress", flag, value]);
+        assert!(!out.status.success(), "{flag}");
+        assert!(
+            stderr(&out).contains(&format!("'--stress' cannot be used with '{flag}")),
+            "{flag}: {}",
+            stderr(&out)
+        );
+    }
+}

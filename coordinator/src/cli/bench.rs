@@ -82,7 +82,8 @@ pub struct BenchArgs {
     /// Churn instead of comparison: small chunks over iceoryx2 workers that
     /// are killed and respawned at random, checked genome by genome against
     /// in-process evaluation.
-    #[arg(long)]
+    // The comparison's own settings do not apply to it, and are refused.
+    #[arg(long, conflicts_with_all = ["transports", "rounds", "listen", "spin_us", "verify", "coordinator_share"])]
     stress: bool,
     /// Let the workers run on any CPU instead of one CPU each.
     #[arg(long)]
@@ -101,21 +102,23 @@ pub struct BenchArgs {
     #[arg(long, value_enum, value_name = "WHEN", default_value_t = CoordinatorShare::Auto)]
     coordinator_share: CoordinatorShare,
     /// With --stress: worker kills per second, on average.
-    #[arg(long, value_name = "PER_S", default_value_t = 2.0)]
+    #[arg(long, value_name = "PER_S", default_value_t = 2.0, requires = "stress")]
     kill_rate: f64,
     /// With --stress: fly the workload again and again for this long, and
     /// check that the coordinator's memory, open descriptors and iceoryx2
     /// files do not grow (a soak).
     #[arg(long, value_name = "SECONDS", requires = "stress")]
     soak: Option<u64>,
-    /// The worker-process modes count into metrics served here, as
-    /// `lander run --metrics`, to measure what metrics cost.
+    /// The worker-process modes (or --stress's churned pool) count into
+    /// metrics served here, as `lander run --metrics`, to measure what
+    /// metrics cost.
     #[command(flatten)]
     watch: super::watch::WatchArgs,
 }
 
-fn args_for_stress(args: &BenchArgs) -> super::stress::StressArgs {
+fn args_for_stress(args: &BenchArgs, watch: &super::watch::Watch) -> super::stress::StressArgs {
     super::stress::StressArgs {
+        telemetry: watch.telemetry.clone(),
         workers: args.workers,
         kill_rate: args.kill_rate,
         no_pin: args.no_pin,
@@ -243,14 +246,14 @@ pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
         cfg.trial
     );
     let work = Workload::new(&cfg, pass, generations, usize::from(args.in_flight), stop)?;
-    if args.stress {
-        return super::stress::stress(&args_for_stress(&args), &work, stop);
-    }
     let kinds = kinds(&args)?;
     anyhow::ensure!(!kinds.is_empty(), "--transports named no transport");
     let watch = args
         .watch
         .start(format!("bench{:08x}", rand::random::<u32>()))?;
+    if args.stress {
+        return super::stress::stress(&args_for_stress(&args, &watch), &work, stop);
+    }
     let mut modes = Vec::new();
     for kind in kinds {
         modes.push(Mode::new(

@@ -24,6 +24,9 @@ pub struct StressArgs {
     /// Fly the workload round after round for this long, watching the
     /// coordinator's resources.
     pub soak: Option<Duration>,
+    /// The churned pool counts into it: metrics, where `--metrics` serves
+    /// them.
+    pub telemetry: lander_telemetry::Telemetry,
 }
 
 /// How much a soak lets the coordinator's resources grow from the end of
@@ -98,7 +101,7 @@ pub fn stress(args: &StressArgs, work: &Workload, stop_asked: &Stop) -> anyhow::
     opts.max_respawns = usize::MAX;
     // Every chunk goes through the workers being killed.
     opts.share = false;
-    let mut pool = IpcPool::start(opts, lander_telemetry::Telemetry::silent())?;
+    let mut pool = IpcPool::start(opts, args.telemetry.clone())?;
     pool.wait_for_workers(args.workers, Duration::from_secs(20))
         .context("waiting for the workers")?;
     let kind = ModeKind::Iceoryx2 {
