@@ -1017,3 +1017,30 @@ fn a_second_coordinator_of_a_running_run_id_is_refused() {
     );
     assert!(dir.path().join("first/best.json").exists());
 }
+
+/// A Ctrl-C reaches spawned workers too, at any moment of their start. A
+/// worker signalled while it made its node left that node's files half
+/// written, for good (3 of 60 starts signalled 0–12 ms in); now each one
+/// either dies before it has begun or stops cleanly.
+#[test]
+fn a_worker_signalled_as_it_starts_leaves_no_iceoryx2_file() {
+    let iox = Iox::new("start_signal");
+    for i in 0..60u64 {
+        let worker = iox
+            .command("lander-worker")
+            .args(["--run", "startsignal", "--quiet"])
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_micros(i * 200));
+        signal(worker.id(), "INT");
+        let mut worker = worker;
+        worker.wait().unwrap();
+        assert_eq!(
+            iox.root_files(),
+            Vec::<std::path::PathBuf>::new(),
+            "iceoryx2 files left by a worker signalled {} µs after its start",
+            i * 200
+        );
+    }
+}
