@@ -8,7 +8,8 @@
 //! - `RUST_LOG` filters, as `tracing-subscriber`'s `EnvFilter` reads it.
 //!   Unset, lander's own crates log at `info` and everything else,
 //!   zenoh among it, at `warn`, but for zenoh's warning at each failed
-//!   attempt to connect (a waiting worker says it once, itself).
+//!   attempt to connect (a waiting worker says it once, itself) and its
+//!   warning that gossip, which lander turns off, is off.
 //!
 //! Progress bars are drawn on stderr too. Every bar is added to [`bars`],
 //! and each log line is written with the bars lifted (`suspend`), so
@@ -61,6 +62,10 @@ fn default_filter(quiet: bool) -> String {
         // zenoh warns of every failed attempt to connect; a worker waiting
         // for its coordinator retries, and says so itself, once.
         + ",zenoh::net::runtime::orchestrator=error"
+        // And at every coordinator's start, that gossip is off (lander
+        // turns it off: its sessions meet by the addresses they are given,
+        // through no region gateway).
+        + ",zenoh::net::routing::hat::peer=error"
 }
 
 /// Installs the subscriber for the process. `program` starts every text
@@ -182,9 +187,10 @@ mod tests {
         assert!(f.contains("lander_coordinator=info"), "{f}");
         assert!(default_filter(true).contains("lander_worker=warn"));
         assert!(
-            f.ends_with(",zenoh::net::runtime::orchestrator=error"),
+            f.contains(",zenoh::net::runtime::orchestrator=error,"),
             "{f}"
         );
+        assert!(f.ends_with(",zenoh::net::routing::hat::peer=error"), "{f}");
         EnvFilter::try_new(&f).unwrap();
     }
 }
