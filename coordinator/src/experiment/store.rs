@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 pub enum StoreError {
     #[error("{path}: {message}")]
     Io { path: PathBuf, message: String },
-    #[error("{dir} already holds an experiment's results; pass --resume to finish it, or choose another --out")]
+    #[error("{dir} already holds an experiment's results; pass --resume to finish it (or, finished, to write its tables and figures again), or choose another --out")]
     Occupied { dir: PathBuf },
     #[error("{dir} holds results of a different experiment ({field}); choose another --out")]
     Different { dir: PathBuf, field: String },

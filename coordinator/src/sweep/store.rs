@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
 pub enum SweepStoreError {
-    #[error("{dir} already holds a sweep's results; pass --resume to finish it, or choose another --out")]
+    #[error("{dir} already holds a sweep's results; pass --resume to finish it (or, finished, to write its tables and figures again), or choose another --out")]
     Occupied { dir: PathBuf },
     #[error("{dir} holds results of a different sweep ({field}); choose another --out")]
     Different { dir: PathBuf, field: String },
