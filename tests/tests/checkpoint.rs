@@ -188,8 +188,10 @@ fn a_killed_run_resumes_to_the_outputs_of_a_run_never_stopped() {
     }
 }
 
-#[test]
-fn sigterm_saves_the_run_and_resume_finishes_it() {
+/// `stop` sent to a guided run 20 generations in, checkpointing only when
+/// stopped: it must save, and a resume must finish it to the outputs of a
+/// run never stopped. Returns the stopped run's output.
+fn stopped_then_resumed(stop: impl FnOnce(u32)) -> Output {
     let dir = tempfile::tempdir().unwrap();
     let cfg = config(dir.path());
     let whole_dir = dir.path().join("whole");
@@ -199,7 +201,6 @@ fn sigterm_saves_the_run_and_resume_finishes_it() {
     );
     let out = dir.path().join("run");
     let out_s = out.to_str().unwrap();
-    // Checkpoints only when stopped.
     let mut a = args(&cfg, "guided", out_s, &[]);
     let n = a.len();
     a[n - 1] = "0";
@@ -210,7 +211,7 @@ fn sigterm_saves_the_run_and_resume_finishes_it() {
         .spawn()
         .unwrap();
     assert!(wait_until(60, || lines_in(&out.join("generations.jsonl")) >= 20));
-    lander_tests::signal(child.id(), "TERM");
+    stop(child.id());
     let stopped = child.wait_with_output().unwrap();
     assert!(!stopped.status.success());
     assert!(
@@ -218,9 +219,15 @@ fn sigterm_saves_the_run_and_resume_finishes_it() {
         "{}",
         stderr(&stopped)
     );
-    assert!(out.join("checkpoint.bin").exists());
+    assert!(out.join("checkpoint.bin").exists(), "{}", stderr(&stopped));
     let resumed = lander(&["run", "--resume", out_s, "--json"]);
     assert_eq!(outputs(&out, &resumed), whole);
+    stopped
+}
+
+#[test]
+fn sigterm_saves_the_run_and_resume_finishes_it() {
+    stopped_then_resumed(|pid| lander_tests::signal(pid, "TERM"));
 }
 
 /// One request can come as two signals: `timeout -s INT` signals the
@@ -229,41 +236,23 @@ fn sigterm_saves_the_run_and_resume_finishes_it() {
 /// with nothing saved); a resume finishes it.
 #[test]
 fn a_signal_that_comes_twice_at_once_saves_the_run_as_one_does() {
-    let dir = tempfile::tempdir().unwrap();
-    let cfg = config(dir.path());
-    let whole_dir = dir.path().join("whole");
-    let whole = outputs(
-        &whole_dir,
-        &lander(&args(&cfg, "guided", whole_dir.to_str().unwrap(), &[])),
-    );
-    let out = dir.path().join("run");
-    let out_s = out.to_str().unwrap();
-    let mut a = args(&cfg, "guided", out_s, &[]);
-    let n = a.len();
-    a[n - 1] = "0";
-    let child = Command::new(binary("lander"))
-        .args(&a)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    assert!(wait_until(60, || lines_in(&out.join("generations.jsonl")) >= 20));
-    let pid = child.id().to_string();
-    let twice = Command::new("sh")
-        .args(["-c", "kill -INT $0; sleep 0.01; kill -INT $0", &pid])
-        .status()
-        .unwrap();
-    assert!(twice.success());
-    let stopped = child.wait_with_output().unwrap();
+    let stopped = stopped_then_resumed(|pid| {
+        let twice = Command::new("sh")
+            .args([
+                "-c",
+                "kill -INT $0; sleep 0.01; kill -INT $0",
+                &pid.to_string(),
+            ])
+            .status()
+            .unwrap();
+        assert!(twice.success());
+    });
     assert_eq!(stopped.status.code(), Some(130), "{}", stderr(&stopped));
     assert!(
         !stderr(&stopped).contains("second signal"),
         "{}",
         stderr(&stopped)
     );
-    assert!(out.join("checkpoint.bin").exists(), "{}", stderr(&stopped));
-    let resumed = lander(&["run", "--resume", out_s, "--json"]);
-    assert_eq!(outputs(&out, &resumed), whole);
 }
 
 #[test]

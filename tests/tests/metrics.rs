@@ -180,6 +180,16 @@ fn prometheus_sees_genomes_rise_two_workers_and_a_death() {
 }
 
 /// `promtool check metrics` on `text`: its complaints, if any.
+/// Whether the metrics at `addr` hold counter `name` above 0.
+fn counted(addr: &str, name: &str) -> bool {
+    http_get(addr, "/metrics").is_ok_and(|t| {
+        t.lines().any(|l| {
+            l.strip_prefix(name)
+                .is_some_and(|v| v.starts_with(' ') && v != " 0")
+        })
+    })
+}
+
 fn promtool(text: &str) -> Result<(), String> {
     let mut child = Command::new("promtool")
         .args(["check", "metrics"])
@@ -238,12 +248,7 @@ fn promtool_passes_a_coordinators_and_a_workers_metrics() {
         .unwrap();
     // Scraped once the worker has served jobs, so that every series has a
     // value.
-    let served = || {
-        http_get(&worker_addr, "/metrics").is_ok_and(|t| {
-            t.lines()
-                .any(|l| l.starts_with("lander_worker_jobs_total ") && !l.ends_with(" 0"))
-        })
-    };
+    let served = || counted(&worker_addr, "lander_worker_jobs_total");
     assert!(wait_until(60, served), "the worker served no job");
     for (who, addr) in [("coordinator", &run_addr), ("worker", &worker_addr)] {
         let text = http_get(addr, "/metrics").unwrap();
@@ -354,12 +359,7 @@ fn bench_stress_serves_its_pools_metrics_and_refuses_the_comparisons_settings() 
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let dispatched = || {
-        http_get(&addr, "/metrics").is_ok_and(|t| {
-            t.lines()
-                .any(|l| l.starts_with("lander_chunks_dispatched_total ") && !l.ends_with(" 0"))
-        })
-    };
+    let dispatched = || counted(&addr, "lander_chunks_dispatched_total");
     assert!(wait_until(60, dispatched), "no chunk counted at {addr}");
     interrupt(bench);
     for (flag, value) in [
