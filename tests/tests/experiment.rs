@@ -386,3 +386,19 @@ fn the_report_loads_in_a_browser_with_its_plots_and_a_running_replay() {
     let errors = page.console_errors();
     assert!(errors.is_empty(), "console errors: {errors:?}");
 }
+
+/// An `--out` that cannot be made is named itself, not a folder inside it.
+#[test]
+fn an_out_folder_that_cannot_be_made_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_file(dir.path(), SMALL);
+    let blocker = dir.path().join("a-file");
+    fs::write(&blocker, "").unwrap();
+    let out = blocker.join("results");
+    let said = stderr(&run_experiment(&file, &out, &[]));
+    assert!(
+        said.contains(&format!("{}: cannot create the folder", out.display())),
+        "{said}"
+    );
+    assert!(!said.contains("results/trials"), "{said}");
+}

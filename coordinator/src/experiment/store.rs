@@ -53,8 +53,14 @@ impl Store {
             (true, true) => store.check_same(&definition, exp)?,
             (false, false) => {}
         }
-        let trials = store.trials_dir();
-        std::fs::create_dir_all(&trials).map_err(io(&trials))?;
+        // The folder first, so that an error names it rather than a folder
+        // inside it.
+        for folder in [dir.to_path_buf(), store.trials_dir()] {
+            std::fs::create_dir_all(&folder).map_err(|e| StoreError::Io {
+                message: format!("cannot create the folder: {e}"),
+                path: folder,
+            })?;
+        }
         write_json(&definition, exp).map_err(|e| StoreError::Io {
             path: definition.clone(),
             message: e.cause.to_string(),

@@ -50,7 +50,7 @@ impl SweepStore {
         }
         std::fs::create_dir_all(dir).map_err(|e| SweepStoreError::Io {
             path: dir.into(),
-            message: e.to_string(),
+            message: format!("cannot create the folder: {e}"),
         })?;
         write_json(&definition, &fresh).map_err(|e| SweepStoreError::Io {
             path: definition.clone(),
