@@ -273,6 +273,10 @@ mod tests {
                 "[guided]\nw_y = 1e-300",
                 "guided.w_y must be at least 1e-12",
             ),
+            (
+                "[guided]\nw_y = 0",
+                "guided.w_y must be at least 1e-12 (got 0.0)",
+            ),
             ("[guided]\nw_t = -6", "guided.w_t must not be negative"),
             // The value given, not its size.
             (

@@ -244,11 +244,11 @@ impl GuideParams {
         probability("guided.epsilon", g.epsilon)?;
         // Bounded, as the weights of scoring are, so that R stays finite
         // for any flight: an infinite R turns Q(λ)'s values into NaN.
-        positive("guided.w_y", g.w_y)?;
+        finite("guided.w_y", g.w_y)?;
         check(
             "guided.w_y",
             g.w_y >= 1e-12,
-            &format!("must be at least 1e-12 (got {})", g.w_y),
+            &format!("must be at least 1e-12 (got {:?})", g.w_y),
         )?;
         finite("guided.h1", g.h1)?;
         within("guided.r", g.r, 1e12)?;
