@@ -116,9 +116,9 @@ pub struct BenchArgs {
     watch: super::watch::WatchArgs,
 }
 
-fn args_for_stress(args: &BenchArgs, watch: &super::watch::Watch) -> super::stress::StressArgs {
+fn args_for_stress(args: &BenchArgs, telemetry: &Telemetry) -> super::stress::StressArgs {
     super::stress::StressArgs {
-        telemetry: watch.telemetry.clone(),
+        telemetry: telemetry.clone(),
         workers: args.workers,
         kill_rate: args.kill_rate,
         no_pin: args.no_pin,
@@ -246,14 +246,14 @@ pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
         cfg.trial
     );
     let work = Workload::new(&cfg, pass, generations, usize::from(args.in_flight), stop)?;
-    let kinds = kinds(&args)?;
-    anyhow::ensure!(!kinds.is_empty(), "--transports named no transport");
     let watch = args
         .watch
         .start(format!("bench{:08x}", rand::random::<u32>()))?;
     if args.stress {
-        return super::stress::stress(&args_for_stress(&args, &watch), &work, stop);
+        return super::stress::stress(&args_for_stress(&args, &watch.telemetry), &work, stop);
     }
+    let kinds = kinds(&args)?;
+    anyhow::ensure!(!kinds.is_empty(), "--transports named no transport");
     let mut modes = Vec::new();
     for kind in kinds {
         modes.push(Mode::new(
