@@ -170,22 +170,27 @@ fn main() -> ExitCode {
         Note::Warning => tracing::warn!("{msg}"),
         Note::Info => tracing::info!("{msg}"),
     };
+    // SIGINT and SIGTERM raise `stop`. Over iceoryx2, only until its node
+    // handles them: a Ctrl-C (it reaches spawned workers too, in their
+    // coordinator's process group) that killed the worker while it made
+    // its node, or probed the iceoryx2 root, left files half written that
+    // no later cleanup could read.
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
+        if let Err(e) = signal_hook::flag::register(signal, stop.clone()) {
+            tracing::error!("cannot handle signal {signal}: {e}");
+            return ExitCode::FAILURE;
+        }
+    }
     let served = match args.transport {
         TransportArg::Iceoryx2 => {
             let spin = Spin::new(Duration::from_micros(args.spin_us));
-            serve::serve(&args.run, id, spin, &note).map_err(|e| e.to_string())
+            serve::serve(&args.run, id, spin, &stop, &note).map_err(|e| e.to_string())
         }
         TransportArg::Zenoh => {
             if args.connect.is_empty() && args.zenoh_config.is_none() {
                 tracing::error!("--transport zenoh needs --connect ENDPOINT (or a --zenoh-config)");
                 return ExitCode::FAILURE;
-            }
-            let stop = Arc::new(AtomicBool::new(false));
-            for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
-                if let Err(e) = signal_hook::flag::register(signal, stop.clone()) {
-                    tracing::error!("cannot handle signal {signal}: {e}");
-                    return ExitCode::FAILURE;
-                }
             }
             let options = NetOptions {
                 connect: args.connect.clone(),

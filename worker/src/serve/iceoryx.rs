@@ -10,16 +10,22 @@ use lander_protocol::spin::Spin;
 use lander_protocol::wire::{ResultHeader, WorkerAnnounce, PROTOCOL_VERSION};
 use std::cell::{Cell, RefCell};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::Duration;
 
 /// How often an idle worker looks around: re-announces itself until it has
 /// work, reaps dead nodes, and checks its coordinator is still there.
 const HOUSEKEEPING: Duration = Duration::from_millis(500);
 
-/// Serves run `run` as worker `id`, telling the user through `say`.
-pub fn serve(run: &str, id: u64, spin: Spin, say: &dyn Fn(Note, &str)) -> Result<Exit, IpcError> {
-    let held = hold_signals()?;
+/// Serves run `run` as worker `id`, telling the user through `say`;
+/// `held` is raised by a SIGINT or SIGTERM that comes before iceoryx2
+/// handles them, at the node's first wait.
+pub fn serve(
+    run: &str,
+    id: u64,
+    spin: Spin,
+    held: &AtomicBool,
+    say: &dyn Fn(Note, &str),
+) -> Result<Exit, IpcError> {
     iox::quiet_logs();
     let config = iox::config()?;
     let names = RunNames::new(run);
@@ -41,22 +47,6 @@ pub fn serve(run: &str, id: u64, spin: Spin, say: &dyn Fn(Note, &str)) -> Result
     // (`parent.rs`) may be the last process of the run.
     node.try_cleanup_dead_nodes();
     exit
-}
-
-/// Catches SIGINT and SIGTERM into a flag until iceoryx2 handles them. A
-/// Ctrl-C reaches a spawned worker too (it is in its coordinator's process
-/// group), and one that killed it while it made its node left the node's
-/// files half written, where no later cleanup could read them (or its
-/// probe of the iceoryx2 root, [`iox::config`]).
-fn hold_signals() -> Result<Arc<AtomicBool>, IpcError> {
-    let held = Arc::new(AtomicBool::new(false));
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, held.clone()).map_err(|e| IpcError {
-            what: format!("handling signal {signal}"),
-            detail: e.to_string(),
-        })?;
-    }
-    Ok(held)
 }
 
 /// Serves the run from `node`, once its coordinator exists.
