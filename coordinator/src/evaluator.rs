@@ -12,8 +12,11 @@ use lander_protocol::iox::IpcError;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::sync::Arc;
+use std::time::Duration;
 
 mod pipeline;
+
+use pipeline::Crew;
 
 /// One generation's worth of work. Genome `i` uses the guided-pass stream
 /// `(key, i)`, so the results do not depend on who flies which genome.
@@ -104,31 +107,38 @@ impl<'a> Batch<'a> {
         &mut self.genomes[..end]
     }
 
-    /// Evaluates every genome here, on the current rayon pool, rewriting
-    /// the genomes as the guided pass leaves them.
+    /// Evaluates every genome here, on the current rayon pool, breeding
+    /// them first if they are still to be bred, and rewriting them as the
+    /// guided pass leaves them.
     pub fn evaluate_here(mut self) -> Vec<Evaluation> {
-        let (env, pass, guide, key) = (self.env, self.pass, self.guide, self.key);
-        let fly = move |i: usize, g: &mut Genome| evaluate(&env, pass, &guide, key, i as u64, g);
-        match self.offspring.take() {
-            Some(offspring) if rayon::current_num_threads() > 1 => {
-                let population = offspring.population();
-                let flown = pipeline::fly_as_bred(offspring, population, fly);
-                let mut evaluations = Vec::with_capacity(flown.len());
-                for (genome, evaluation) in flown {
-                    self.genomes.push(genome);
-                    evaluations.push(evaluation);
-                }
-                evaluations
-            }
-            offspring => {
-                self.offspring = offspring;
-                self.bred_genomes()
-                    .par_iter_mut()
-                    .enumerate()
-                    .map(|(i, g)| fly(i, g))
-                    .collect()
-            }
+        let fly = self.flier();
+        self.bred_genomes()
+            .par_iter_mut()
+            .enumerate()
+            .map(|(i, g)| fly(i, g))
+            .collect()
+    }
+
+    /// Evaluates every genome on `pool`, each flown by `crew` as soon as
+    /// it is bred, while this thread breeds the next (`pipeline`).
+    fn evaluate_as_bred(mut self, crew: &Arc<Crew>, pool: &rayon::ThreadPool) -> Vec<Evaluation> {
+        let Some(offspring) = self.offspring.take() else {
+            return self.evaluate_here();
+        };
+        let population = offspring.population();
+        let flown = crew.fly_as_bred(pool, offspring, population, Arc::new(self.flier()));
+        let mut evaluations = Vec::with_capacity(flown.len());
+        for (genome, evaluation) in flown {
+            self.genomes.push(genome);
+            evaluations.push(evaluation);
         }
+        evaluations
+    }
+
+    /// What flies genome `i` of the batch.
+    fn flier(&self) -> impl Fn(usize, &mut Genome) -> Evaluation + Send + Sync + 'static {
+        let (env, pass, guide, key) = (self.env, self.pass, self.guide, self.key);
+        move |i: usize, g: &mut Genome| evaluate(&env, pass, &guide, key, i as u64, g)
     }
 }
 
@@ -230,6 +240,26 @@ pub trait Trainer {
 pub trait Backend: Evaluator + Trainer {}
 impl<T: Evaluator + Trainer> Backend for T {}
 
+/// How long an evaluation thread polls for the next generation, or a
+/// spawned worker with a CPU of its own for its next chunk, before it
+/// sleeps, unless told otherwise (`--spin-us`): a trial's generations
+/// follow each other within microseconds, and a millisecond outlasts every
+/// gap of a run but its checkpoints (docs/performance.md measures it).
+pub const DEFAULT_SPIN_US: u64 = 1_000;
+pub const DEFAULT_SPIN: Duration = Duration::from_micros(DEFAULT_SPIN_US);
+
+/// `spin` where each of `threads` threads has a CPU of its own, and
+/// nothing where they would share one: a spinning thread would take its
+/// CPU from the thread it waits for.
+fn own_cpus_spin(threads: usize, spin: Duration) -> Duration {
+    let cpus = lander_protocol::host::allowed_cpus().len();
+    if threads <= cpus {
+        spin
+    } else {
+        Duration::ZERO
+    }
+}
+
 /// The most in-process evaluation threads a run may ask for.
 pub const MAX_THREADS: usize = 1024;
 
@@ -238,6 +268,9 @@ pub struct InProcess {
     /// Shared with [`drive`](Evaluator::drive)'s call, which lends `self`
     /// to one of the pool's threads.
     pool: Arc<rayon::ThreadPool>,
+    /// The pool's threads as they fly a single trial's generation while
+    /// it is bred.
+    crew: Arc<Crew>,
     stop: Stop,
 }
 
@@ -259,10 +292,21 @@ impl InProcess {
                 threads,
                 reason: e.to_string(),
             })?;
+        let threads = pool.current_num_threads();
         Ok(InProcess {
+            crew: Arc::new(Crew::new(threads, own_cpus_spin(threads, DEFAULT_SPIN))),
             pool: Arc::new(pool),
             stop: Stop::new(),
         })
+    }
+
+    /// The same pool, its threads polling for the next generation for at
+    /// most `spin` before they sleep, where each has a CPU of its own;
+    /// zero never spins.
+    pub fn spinning(mut self, spin: Duration) -> InProcess {
+        let threads = self.thread_count();
+        self.crew = Arc::new(Crew::new(threads, own_cpus_spin(threads, spin)));
+        self
     }
 
     /// Stops at the next generation or trial once `stop` is asked.
@@ -295,9 +339,16 @@ impl Evaluator for InProcess {
         if self.stop.asked() {
             return Err(EvalError::Interrupted);
         }
-        Ok(self
-            .pool
-            .install(|| batches.into_par_iter().map(Batch::evaluate_here).collect()))
+        let (pool, crew) = (&self.pool, &self.crew);
+        Ok(pool.install(|| match <[Batch; 1]>::try_from(batches) {
+            // A single trial's generation still to be bred, on more than
+            // one thread: flown as it is bred.
+            Ok([batch]) if !batch.is_bred() && pool.current_num_threads() > 1 => {
+                vec![batch.evaluate_as_bred(crew, pool)]
+            }
+            Ok([batch]) => vec![batch.evaluate_here()],
+            Err(batches) => batches.into_par_iter().map(Batch::evaluate_here).collect(),
+        }))
     }
 }
 

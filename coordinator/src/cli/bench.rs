@@ -88,9 +88,9 @@ pub struct BenchArgs {
     /// Let the workers run on any CPU instead of one CPU each.
     #[arg(long)]
     no_pin: bool,
-    /// Microseconds a spawned worker with a CPU of its own polls for its
-    /// next chunk before sleeping, as `lander run --spin-us` (0: never)
-    /// [default: as `lander run`].
+    /// Microseconds an evaluation thread or a spawned worker with a CPU of
+    /// its own polls for its next work before sleeping, as `lander run
+    /// --spin-us` (0: never) [default: as `lander run`].
     #[arg(long, value_name = "MICROSECONDS", value_parser = clap::value_parser!(u64).range(0..=MAX_SPIN_US))]
     spin_us: Option<u64>,
     /// The worker-process modes check this share of answered chunks, 0 to
@@ -177,7 +177,11 @@ fn evaluator(
 ) -> anyhow::Result<Box<dyn Measured>> {
     Ok(match kind {
         ModeKind::InProcess { threads } => {
-            Box::new(InProcess::new(threads)?.stopping_on(stop.clone()))
+            let mut inproc = InProcess::new(threads)?.stopping_on(stop.clone());
+            if let Some(us) = args.spin_us {
+                inproc = inproc.spinning(Duration::from_micros(us));
+            }
+            Box::new(inproc)
         }
         ModeKind::Iceoryx2 { workers } => {
             let id = format!("bench{:08x}", rand::random::<u32>());

@@ -5,7 +5,7 @@
 use super::watch::{Watch, WatchArgs};
 use anyhow::Context;
 use clap::{Args, ValueEnum};
-use lander_coordinator::evaluator::{Backend, InProcess};
+use lander_coordinator::evaluator::{Backend, InProcess, DEFAULT_SPIN, DEFAULT_SPIN_US};
 use lander_coordinator::pool::zenoh::Zenoh;
 use lander_coordinator::pool::{cpu_to_spare, IpcPool, Pool, PoolOptions, DEPTH};
 use lander_coordinator::stop::Stop;
@@ -52,11 +52,6 @@ impl CoordinatorShare {
 /// The longest `--deadline`: a day for one chunk is already no deadline.
 const MAX_DEADLINE_S: f64 = 86_400.0;
 
-/// How long a spawned worker with a CPU of its own polls for its next
-/// chunk before sleeping (docs/performance.md measures it).
-const DEFAULT_SPIN_US: u64 = 1_000;
-const DEFAULT_SPIN: Duration = Duration::from_micros(DEFAULT_SPIN_US);
-
 /// Where a zenoh coordinator listens unless told otherwise: this host only.
 const DEFAULT_LISTEN: &str = "tcp/127.0.0.1:7447";
 
@@ -102,9 +97,10 @@ pub struct TransportArgs {
     /// free when other programs need the same CPUs.
     #[arg(long)]
     no_pin: bool,
-    /// Microseconds a spawned iceoryx2 worker polls for its next chunk
-    /// before sleeping, halving while none comes; only when every worker
-    /// and the coordinator have a CPU of their own. 0 never spins.
+    /// Microseconds an evaluation thread polls for the next generation, or
+    /// a spawned iceoryx2 worker for its next chunk, before sleeping,
+    /// halving while none comes; only where each has a CPU of its own.
+    /// 0 never spins.
     #[arg(long, value_name = "MICROSECONDS", default_value_t = DEFAULT_SPIN_US)]
     spin_us: u64,
     /// The share of answered chunks, 0 to 1, flown again on this host and
@@ -151,7 +147,11 @@ impl TransportArgs {
     ) -> anyhow::Result<Box<dyn Backend>> {
         Ok(match self.pool(telemetry, stop)? {
             Some(pool) => pool,
-            None => Box::new(InProcess::new(threads)?.stopping_on(stop.clone())),
+            None => Box::new(
+                InProcess::new(threads)?
+                    .stopping_on(stop.clone())
+                    .spinning(Duration::from_micros(self.spin_us)),
+            ),
         })
     }
 

@@ -1,104 +1,284 @@
 //! A generation flown while it is bred: one thread breeds every genome in
-//! order while the pool's other threads fly each as soon as it is ready,
-//! then the breeder flies what is left.
+//! order while a crew of the pool's other threads flies each as soon as it
+//! is ready, then the breeder flies what is left.
 //!
 //! Breeding draws from one sequential stream, so it cannot be split; bred
 //! before the flying, a generation would leave every other thread idle
 //! meanwhile. One thread breeds them all, rather than whichever takes the
 //! next, so that the generator's state stays in one core's cache.
+//!
+//! **The crew stays awake between generations.** A trial's generations
+//! follow each other a few microseconds apart (the breeder records one and
+//! sets up the next), and a rayon thread that finds no work sleeps after
+//! about ten: waking it again cost 18–30 µs a generation on a virtual
+//! machine, a sixth of a two-thread generation. So a helper that has flown
+//! its share does not go back to rayon at once: it polls for the next
+//! generation for a bounded, adaptive time ([`Spin`], as a worker process
+//! does), running any other rayon work it finds meanwhile, and only then
+//! retires to rayon's pool, where its thread sleeps. It spins only where
+//! every thread of the pool has a CPU of its own; the next generation
+//! calls a retired helper back.
 
 use crate::ga::Genome;
 use lander_model::Evaluation;
-use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Mutex, PoisonError};
+use lander_protocol::spin::Spin;
+use std::panic::AssertUnwindSafe;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::Duration;
 
-/// Spins on a genome not yet bred before yielding the CPU: breeding one
-/// takes about half a microsecond, and the breeder has a CPU of its own
-/// unless there are more threads than CPUs, when the yield lets it run.
+/// Spins on a genome not yet bred, or on a helper's last flight, before
+/// yielding the CPU: breeding a genome takes about half a microsecond,
+/// and the breeder has a CPU of its own unless there are more threads
+/// than CPUs, when the yield lets it run.
 const SPINS_BEFORE_YIELD: u32 = 256;
 
-/// One generation's genomes, handed from the breeder to the fliers.
+/// What flies genome `i` of a generation.
+pub(super) type Fly = Arc<dyn Fn(usize, &mut Genome) -> Evaluation + Send + Sync>;
+
+/// Where a genome of the generation under way stands.
+enum Slot {
+    Empty,
+    Bred(Genome),
+    Flown(Genome, Evaluation),
+}
+
+/// One generation's genomes, handed from the breeder to the fliers and
+/// back.
 struct Handover {
-    population: usize,
-    slots: Vec<Mutex<Option<Genome>>>,
+    slots: Vec<Mutex<Slot>>,
+    fly: Fly,
     /// Genomes bred so far: slots below it are filled.
     ready: AtomicUsize,
     /// The next genome to fly.
     claimed: AtomicUsize,
+    /// Genomes taken and done with, flown or (breeding having ended early)
+    /// found empty.
+    done: AtomicUsize,
+    /// A flier panicked: the breeder, waiting for it, panics too.
+    failed: AtomicBool,
 }
 
-type Flown = Vec<(usize, Genome, Evaluation)>;
-
 impl Handover {
+    fn new(population: usize, fly: Fly) -> Handover {
+        Handover {
+            slots: (0..population).map(|_| Mutex::new(Slot::Empty)).collect(),
+            fly,
+            ready: AtomicUsize::new(0),
+            claimed: AtomicUsize::new(0),
+            done: AtomicUsize::new(0),
+            failed: AtomicBool::new(false),
+        }
+    }
+
+    fn population(&self) -> usize {
+        self.slots.len()
+    }
+
+    fn slot(&self, i: usize) -> std::sync::MutexGuard<'_, Slot> {
+        self.slots[i].lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
     /// Breeds every genome `bred` yields into its slot, in order.
     fn breed(&self, bred: impl Iterator<Item = Genome>) {
         // However breeding ends, no flier is left waiting.
-        let _all_ready = AllReady(&self.ready, self.population);
-        for (i, genome) in bred.enumerate().take(self.population) {
-            *self.slots[i].lock().unwrap_or_else(PoisonError::into_inner) = Some(genome);
+        let _all_ready = AllReady(&self.ready, self.population());
+        for (i, genome) in bred.enumerate().take(self.population()) {
+            *self.slot(i) = Slot::Bred(genome);
             self.ready.store(i + 1, Ordering::Release);
         }
     }
 
     /// Flies the next genome not yet taken, as soon as it is bred, until
     /// none is left.
-    fn fly(&self, fly: &(impl Fn(usize, &mut Genome) -> Evaluation + Sync)) -> Flown {
-        let mut flown = Vec::new();
+    fn fly(&self) {
         loop {
             let i = self.claimed.fetch_add(1, Ordering::Relaxed);
-            if i >= self.population {
-                return flown;
+            if i >= self.population() {
+                return;
             }
+            let _done = Done(self);
             wait_until(|| self.ready.load(Ordering::Acquire) > i);
-            let taken = self.slots[i]
-                .lock()
-                .unwrap_or_else(PoisonError::into_inner)
-                .take();
-            if let Some(mut genome) = taken {
-                let evaluation = fly(i, &mut genome);
-                flown.push((i, genome, evaluation));
+            let taken = std::mem::replace(&mut *self.slot(i), Slot::Empty);
+            if let Slot::Bred(mut genome) = taken {
+                let evaluation = (self.fly)(i, &mut genome);
+                *self.slot(i) = Slot::Flown(genome, evaluation);
             }
         }
     }
+
+    /// Waits until every genome taken has been flown, then returns them in
+    /// order.
+    fn collect(&self) -> Vec<(Genome, Evaluation)> {
+        wait_until(|| self.done.load(Ordering::Acquire) >= self.population());
+        assert!(
+            !self.failed.load(Ordering::Acquire),
+            "an evaluation thread panicked flying a genome"
+        );
+        self.slots
+            .iter()
+            .filter_map(|slot| {
+                match std::mem::replace(
+                    &mut *slot.lock().unwrap_or_else(PoisonError::into_inner),
+                    Slot::Empty,
+                ) {
+                    Slot::Flown(genome, evaluation) => Some((genome, evaluation)),
+                    _ => None,
+                }
+            })
+            .collect()
+    }
 }
 
-/// Flies the genomes `bred` yields, `fly(i, genome)` for the `i`th, on
-/// the current rayon pool; returns them as flown, in order.
-pub(super) fn fly_as_bred<I, F>(bred: I, population: usize, fly: F) -> Vec<(Genome, Evaluation)>
-where
-    I: Iterator<Item = Genome> + Send,
-    F: Fn(usize, &mut Genome) -> Evaluation + Sync,
-{
-    let handover = Handover {
-        population,
-        slots: (0..population).map(|_| Mutex::new(None)).collect(),
-        ready: AtomicUsize::new(0),
-        claimed: AtomicUsize::new(0),
-    };
-    let fliers = rayon::current_num_threads().saturating_sub(1);
-    // `join` runs its first closure on this thread, at once: the breeder
-    // never waits for anyone, and a flier waits only for a breeder
-    // already at work.
-    let (mine, theirs) = rayon::join(
-        || {
-            handover.breed(bred);
-            handover.fly(&fly)
-        },
-        || {
-            (0..fliers)
-                .into_par_iter()
-                .with_max_len(1)
-                .map(|_| handover.fly(&fly))
-                .collect::<Vec<Flown>>()
-        },
-    );
-    let mut flown: Flown = mine
-        .into_iter()
-        .chain(theirs.into_iter().flatten())
-        .collect();
-    flown.sort_unstable_by_key(|f| f.0);
-    flown.into_iter().map(|(_, g, e)| (g, e)).collect()
+/// Counts a taken genome as done when dropped, and a panic flying it as
+/// a failure, so that the breeder never waits for it in vain.
+struct Done<'a>(&'a Handover);
+
+impl Drop for Done<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.0.failed.store(true, Ordering::Release);
+        }
+        self.0.done.fetch_add(1, Ordering::Release);
+    }
+}
+
+/// The threads that fly a generation beside its breeder: the pool's
+/// threads but one, called to each generation and kept awake between
+/// generations for a while (see the module's docs).
+pub(super) struct Crew {
+    /// Helpers wanted: every thread of the pool but the breeder's.
+    hands: usize,
+    /// The longest a helper polls for the next generation; zero where the
+    /// threads do not each have a CPU of their own.
+    spin: Duration,
+    /// The generation under way, and its number.
+    board: Mutex<(u64, Option<Arc<Handover>>)>,
+    /// The number of the generation on the board, for helpers polling
+    /// without the lock.
+    posted: AtomicU64,
+    /// Helpers called and not yet retired.
+    on_duty: AtomicUsize,
+    /// The spins of retired helpers, whose budgets the next ones keep.
+    spins: Mutex<Vec<Spin>>,
+}
+
+impl Crew {
+    /// A crew for a pool of `threads` threads, whose helpers spin for at
+    /// most `spin` between generations.
+    pub(super) fn new(threads: usize, spin: Duration) -> Crew {
+        Crew {
+            hands: threads.saturating_sub(1),
+            spin,
+            board: Mutex::new((0, None)),
+            posted: AtomicU64::new(0),
+            on_duty: AtomicUsize::new(0),
+            spins: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// Flies the genomes `bred` yields, `fly(i, genome)` for the `i`th,
+    /// on `pool`, breeding them on this thread; returns them as flown, in
+    /// order.
+    pub(super) fn fly_as_bred(
+        self: &Arc<Self>,
+        pool: &rayon::ThreadPool,
+        bred: impl Iterator<Item = Genome>,
+        population: usize,
+        fly: Fly,
+    ) -> Vec<(Genome, Evaluation)> {
+        let handover = Arc::new(Handover::new(population, fly));
+        self.post(Arc::clone(&handover));
+        self.call_helpers(pool);
+        handover.breed(bred);
+        handover.fly();
+        // The handover stays on the board, empty, until the next replaces
+        // it: taking it off would call the helpers for nothing.
+        handover.collect()
+    }
+
+    /// Puts a generation on the board under a new number.
+    fn post(&self, handover: Arc<Handover>) {
+        let mut board = self.board.lock().unwrap_or_else(PoisonError::into_inner);
+        board.0 += 1;
+        board.1 = Some(handover);
+        // SeqCst, with `on_duty` in `call_helpers` and `retire`: either the
+        // caller sees a helper retired and calls another, or the helper
+        // sees this generation and stays.
+        self.posted.store(board.0, Ordering::SeqCst);
+    }
+
+    /// Calls helpers until `hands` are on duty.
+    fn call_helpers(self: &Arc<Self>, pool: &rayon::ThreadPool) {
+        while self.take_duty() {
+            let crew = Arc::clone(self);
+            let spin = self
+                .spins
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .pop();
+            pool.spawn(move || crew.serve(spin));
+        }
+    }
+
+    /// Counts one more helper on duty, if fewer than `hands` are.
+    fn take_duty(&self) -> bool {
+        self.on_duty
+            .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| {
+                (n < self.hands).then_some(n + 1)
+            })
+            .is_ok()
+    }
+
+    /// A helper's life: fly every generation posted, polling for the next
+    /// between them, until one does not come within the spin.
+    fn serve(&self, spin: Option<Spin>) {
+        let mut spin = spin.unwrap_or_else(|| Spin::new(self.spin));
+        spin.woke();
+        let mut seen = 0;
+        loop {
+            let (number, handover) = {
+                let board = self.board.lock().unwrap_or_else(PoisonError::into_inner);
+                (board.0, board.1.clone())
+            };
+            if number != seen {
+                seen = number;
+                if let Some(handover) = handover {
+                    // A panic flying a genome is the breeder's to raise
+                    // (`Done` marks it); on a pool's spawned job it would
+                    // abort the process.
+                    let flown = std::panic::catch_unwind(AssertUnwindSafe(|| handover.fly()));
+                    if flown.is_err() {
+                        let _ = self.retire();
+                        return;
+                    }
+                }
+                continue;
+            }
+            // Other work on the pool (a batch flown whole, say) is done
+            // while polling, so that a helper on duty never holds it up.
+            let next = spin.poll(|| {
+                self.posted.load(Ordering::SeqCst) != seen
+                    || matches!(rayon::yield_now(), Some(rayon::Yield::Executed))
+            });
+            if !next && !self.retire() {
+                self.spins
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .push(spin);
+                return;
+            }
+        }
+    }
+
+    /// Takes a helper off duty; says whether it must stay after all,
+    /// because a generation was posted while it retired and no other
+    /// helper was called in its place.
+    fn retire(&self) -> bool {
+        let seen = self.posted.load(Ordering::SeqCst);
+        self.on_duty.fetch_sub(1, Ordering::SeqCst);
+        self.posted.load(Ordering::SeqCst) != seen && self.take_duty()
+    }
 }
 
 /// Marks every slot ready when dropped.
@@ -145,12 +325,29 @@ mod tests {
         evaluate(&cfg.env(0), Pass::Guide, &cfg.guided, key, i as u64, g)
     }
 
-    fn on(threads: usize, bred: Vec<Genome>, population: usize) -> Vec<(Genome, Evaluation)> {
-        let pool = rayon::ThreadPoolBuilder::new()
+    fn pool(threads: usize) -> rayon::ThreadPool {
+        rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
-            .unwrap();
-        pool.install(|| fly_as_bred(bred.into_iter(), population, fly))
+            .unwrap()
+    }
+
+    fn on(threads: usize, bred: Vec<Genome>, population: usize) -> Vec<(Genome, Evaluation)> {
+        let pool = pool(threads);
+        let crew = Arc::new(Crew::new(threads, Duration::from_micros(200)));
+        pool.install(|| crew.fly_as_bred(&pool, bred.into_iter(), population, Arc::new(fly)))
+    }
+
+    /// Waits up to a second for `done`.
+    fn eventually(done: impl Fn() -> bool) -> bool {
+        let until = std::time::Instant::now() + Duration::from_secs(1);
+        while std::time::Instant::now() < until {
+            if done() {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        done()
     }
 
     #[test]
@@ -185,5 +382,48 @@ mod tests {
             10,
             "no more than the population"
         );
+    }
+
+    #[test]
+    fn one_crew_flies_generation_after_generation_then_retires() {
+        let alone = on(1, genomes(30), 30);
+        for spin in [Duration::ZERO, Duration::from_millis(5)] {
+            let pool = pool(2);
+            let crew = Arc::new(Crew::new(2, spin));
+            for generation in 0..20 {
+                let flown = pool.install(|| {
+                    crew.fly_as_bred(&pool, genomes(30).into_iter(), 30, Arc::new(fly))
+                });
+                assert!(flown == alone, "generation {generation}, spin {spin:?}");
+                assert!(
+                    crew.on_duty.load(Ordering::SeqCst) <= 1,
+                    "one helper at most"
+                );
+            }
+            // A pause longer than the spin: the helper goes back to the
+            // pool, and its thread to sleep.
+            assert!(
+                eventually(|| crew.on_duty.load(Ordering::SeqCst) == 0),
+                "a helper still on duty after the spin, spin {spin:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_panic_flying_a_genome_reaches_the_breeder() {
+        let pool = pool(2);
+        let crew = Arc::new(Crew::new(2, Duration::from_millis(5)));
+        let panicking: Fly = Arc::new(|i, g: &mut Genome| {
+            assert!(i != 17, "genome 17 cannot fly");
+            fly(i, g)
+        });
+        let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
+            pool.install(|| crew.fly_as_bred(&pool, genomes(30).into_iter(), 30, panicking))
+        }));
+        assert!(result.is_err(), "the panic was lost");
+        // The crew is whole for the next generation.
+        let flown =
+            pool.install(|| crew.fly_as_bred(&pool, genomes(30).into_iter(), 30, Arc::new(fly)));
+        assert!(flown == on(1, genomes(30), 30));
     }
 }
