@@ -3,12 +3,10 @@
 
 use crate::ga::{Genome, Offspring};
 use crate::stop::Stop;
-use lander_model::evaluate::{evaluate_each, evaluate_many};
-use lander_model::guide::LANES;
 use lander_model::learn::run_training;
-use lander_model::Evaluation;
 use lander_model::TrainJob;
 use lander_model::TrainResult;
+use lander_model::{evaluate, Evaluation};
 use lander_model::{Env, GuideParams, Pass, StreamKey};
 use lander_protocol::iox::IpcError;
 use rand_chacha::ChaCha8Rng;
@@ -111,24 +109,13 @@ impl<'a> Batch<'a> {
 
     /// Evaluates every genome here, on the current rayon pool, breeding
     /// them first if they are still to be bred, and rewriting them as the
-    /// guided pass leaves them. Each thread walks a share of the genomes
-    /// in lanes ([`evaluate_each`]), several shares a thread so that one
-    /// that runs long is shared out too.
+    /// guided pass leaves them.
     pub fn evaluate_here(mut self) -> Vec<Evaluation> {
-        let (env, pass, guide, key) = (self.env, self.pass, self.guide, self.key);
-        let genomes = self.bred_genomes();
-        let share = genomes
-            .len()
-            .div_ceil(2 * rayon::current_num_threads())
-            .max(2 * LANES);
-        genomes
-            .par_chunks_mut(share)
+        let fly = self.flier();
+        self.bred_genomes()
+            .par_iter_mut()
             .enumerate()
-            .flat_map_iter(|(n, chunk)| {
-                let first = (n * share) as u64;
-                let shared = chunk.iter_mut().map(|g| (env, g.as_mut_slice()));
-                evaluate_many(pass, &guide, key, first, shared)
-            })
+            .map(|(i, g)| fly(i, g))
             .collect()
     }
 
@@ -139,7 +126,7 @@ impl<'a> Batch<'a> {
             return self.evaluate_here();
         };
         let population = offspring.population();
-        let flown = crew.fly_as_bred(pool, offspring, population, self.flier());
+        let flown = crew.fly_as_bred(pool, offspring, population, Arc::new(self.flier()));
         let mut evaluations = Vec::with_capacity(flown.len());
         for (genome, evaluation) in flown {
             self.genomes.push(genome);
@@ -148,13 +135,10 @@ impl<'a> Batch<'a> {
         evaluations
     }
 
-    /// What flies the batch's genomes, given with their indices.
-    fn flier(&self) -> pipeline::Fly {
+    /// What flies genome `i` of the batch.
+    fn flier(&self) -> impl Fn(usize, &mut Genome) -> Evaluation + Send + Sync + 'static {
         let (env, pass, guide, key) = (self.env, self.pass, self.guide, self.key);
-        Arc::new(move |genomes, done| {
-            let genomes = genomes.map(|(i, genome)| (env, i, genome));
-            evaluate_each(pass, &guide, key, genomes, done);
-        })
+        move |i: usize, g: &mut Genome| evaluate(&env, pass, &guide, key, i as u64, g)
     }
 }
 

@@ -6,7 +6,7 @@
 //! `cargo bench --workspace --bench flight`
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
-use lander_model::evaluate::{evaluate_guided_one_by_one, evaluate_many};
+use lander_model::evaluate::evaluate_guided_one_by_one;
 use lander_model::learn::train;
 use lander_model::{evaluate, fly, reference};
 use lander_model::{Action, Env, Gene, GuideParams, LearnParams, Pass, Scoring, StreamKey, World};
@@ -87,35 +87,6 @@ fn guided_generation(c: &mut Criterion) {
             )
         });
     }
-    // The guided generation walked eight genomes at a time, as workers and
-    // evaluation threads walk it.
-    let lanes = |batch: &mut Vec<(Env, Vec<Gene>)>| {
-        evaluate_many(
-            Pass::Guide,
-            &params,
-            key,
-            0,
-            batch.iter_mut().map(|(e, g)| (*e, g.as_mut_slice())),
-        )
-    };
-    let mut alone = work.clone();
-    let mut together = work.clone();
-    let one_by_one: Vec<_> = alone
-        .iter_mut()
-        .enumerate()
-        .map(|(i, (e, g))| evaluate(e, Pass::Guide, &params, key, i as u64, g))
-        .collect();
-    assert!(
-        lanes(&mut together) == one_by_one && together == alone,
-        "the pass in lanes differs"
-    );
-    group.bench_function("guided in lanes", |b| {
-        b.iter_batched_ref(
-            || work.clone(),
-            |batch| black_box(lanes(batch)),
-            BatchSize::SmallInput,
-        )
-    });
     // The guided generation with each gene's four branches flown one after
     // another: the baseline that flying them together is measured against.
     group.bench_function("guided one by one", |b| {

@@ -7,10 +7,6 @@ use crate::sim::{Flight, Physics};
 use crate::{Action, Env, Gene, GuideParams};
 use rand::Rng;
 
-mod lanes;
-
-pub use lanes::{guide_lanes, in_lanes, Walk, LANES};
-
 /// Improves `genes` in place. Only actions change, never durations or the
 /// length. Returns the flight as it stands after the last gene flown, which
 /// is exactly the state that flying the new genome would reach there, and
@@ -21,38 +17,24 @@ pub fn guide_in_place(
     genes: &mut [Gene],
     rng: &mut impl Rng,
 ) -> (Flight, u64) {
-    walk_on(env, params, genes, Flight::start(env), rng)
-}
-
-/// The pass from `flight` on, over `genes`, the genes still to fly:
-/// [`guide_in_place`] from a walk's midpoint. Returns the flight where the
-/// walk ended and the ticks simulated from `flight`.
-pub(crate) fn walk_on(
-    env: &Env,
-    params: &GuideParams,
-    genes: &mut [Gene],
-    flight: Flight,
-    rng: &mut impl Rng,
-) -> (Flight, u64) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx512f") {
         // SAFETY: the CPU has the feature the function is compiled for; it
         // was just asked.
-        return unsafe { walk_avx512(env, params, genes, flight, rng) };
+        return unsafe { guide_avx512(env, params, genes, rng) };
     }
-    guide_with(Flight::branch, env, params, genes, flight, rng)
+    guide_with(Flight::branch, env, params, genes, rng)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-fn walk_avx512(
+fn guide_avx512(
     env: &Env,
     params: &GuideParams,
     genes: &mut [Gene],
-    flight: Flight,
     rng: &mut impl Rng,
 ) -> (Flight, u64) {
-    guide_with(Flight::branch, env, params, genes, flight, rng)
+    guide_with(Flight::branch, env, params, genes, rng)
 }
 
 /// [`guide_in_place`] with each gene's four branches flown one after
@@ -64,14 +46,7 @@ pub fn guide_in_place_one_by_one(
     genes: &mut [Gene],
     rng: &mut impl Rng,
 ) -> (Flight, u64) {
-    guide_with(
-        Flight::branch_one_by_one,
-        env,
-        params,
-        genes,
-        Flight::start(env),
-        rng,
-    )
+    guide_with(Flight::branch_one_by_one, env, params, genes, rng)
 }
 
 type Brancher = fn(&Flight, &Physics, u32, &mut [Flight; 4]) -> u64;
@@ -82,10 +57,10 @@ fn guide_with(
     env: &Env,
     params: &GuideParams,
     genes: &mut [Gene],
-    mut flight: Flight,
     rng: &mut impl Rng,
 ) -> (Flight, u64) {
     let p = Physics::new(env);
+    let mut flight = Flight::start(env);
     let mut simulated = 0u64;
     let mut options = [flight; 4];
     for gene in genes.iter_mut() {
@@ -112,9 +87,6 @@ pub fn guide(env: &Env, params: &GuideParams, genes: &[Gene], rng: &mut impl Rng
 }
 
 /// The action whose resulting state maximises R; the lowest index on a tie.
-// Inlined, so that it is compiled with its caller's instructions (AVX-512
-// in `walk_avx512`).
-#[inline(always)]
 fn best_action(env: &Env, params: &GuideParams, options: &[Flight; 4]) -> Action {
     let [r0, r1] = reinforcement_pair(env, params, &options[0].state, &options[1].state);
     let [r2, r3] = reinforcement_pair(env, params, &options[2].state, &options[3].state);
@@ -238,91 +210,6 @@ mod tests {
             prop_assert_eq!(fast, slow);
             prop_assert_eq!((a.0.state, a.0.ticks, a.0.touched_down(), a.1),
                             (b.0.state, b.0.ticks, b.0.touched_down(), b.1));
-        }
-    }
-
-    /// Walks every genome alone with [`guide_in_place`] and in lanes, and
-    /// compares the genes, flights and ticks simulated bit for
-    /// bit.
-    fn same_in_lanes(
-        walks: &[(Env, Vec<Gene>)],
-        p: &GuideParams,
-        seed: u64,
-    ) -> Result<(), TestCaseError> {
-        let rng = |i: usize| ChaCha8Rng::seed_from_u64(seed ^ i as u64);
-        let mut alone = Vec::new();
-        for (i, (e, genes)) in walks.iter().enumerate() {
-            let mut genes = genes.clone();
-            let (flight, simulated) = guide_in_place(e, p, &mut genes, &mut rng(i));
-            alone.push((genes, flight, simulated));
-        }
-        let mut ended = vec![None; walks.len()];
-        let jobs = walks.iter().zip(0..).map(|((env, genes), index)| Walk {
-            env: *env,
-            index,
-            genes: genes.clone(),
-            rng: rng(index as usize),
-        });
-        guide_lanes(p, jobs, &mut |walk, flight, simulated| {
-            let i = walk.index as usize;
-            assert!(ended[i].is_none(), "walk {i} ended twice");
-            ended[i] = Some((walk.genes, flight, simulated));
-        });
-        for (i, ((g, f, sim), ended)) in alone.iter().zip(&ended).enumerate() {
-            let Some((genes, flight, simulated)) = ended else {
-                return Err(TestCaseError::fail(format!("walk {i} never ended")));
-            };
-            prop_assert_eq!(genes, g, "walk {}", i);
-            prop_assert_eq!(
-                (
-                    flight.state,
-                    flight.ticks,
-                    flight.touched_down(),
-                    *simulated
-                ),
-                (f.state, f.ticks, f.touched_down(), *sim),
-                "walk {}",
-                i
-            );
-        }
-        Ok(())
-    }
-
-    fn arb_walks() -> impl Strategy<Value = Vec<(Env, Vec<Gene>)>> {
-        let world = prop_oneof![
-            6 => Just(crate::World::default()),
-            // The tick guard, reached mid-gene.
-            1 => (1u32..300).prop_map(|max_ticks| crate::World { max_ticks, ..crate::World::default() }),
-            // Another world, walked alone.
-            1 => Just(crate::World { gravity: 3.0, ..crate::World::default() }),
-        ];
-        proptest::collection::vec(
-            (world, arb_genome(), 0.0f64..400.0, 50.0f64..350.0).prop_map(
-                |(world, genes, x0, pad_x)| {
-                    (
-                        Env {
-                            world,
-                            ..env(x0, pad_x)
-                        },
-                        genes,
-                    )
-                },
-            ),
-            0..40,
-        )
-    }
-
-    proptest! {
-        #![proptest_config(ProptestConfig::with_cases(400))]
-
-        /// Genomes walked in lanes equal each walked alone in every gene,
-        /// tick and bit of the flight.
-        #[test]
-        fn lanes_walk_every_genome_as_it_walks_alone(
-            walks in arb_walks(), eps in 0.0f64..=1.0, seed in any::<u64>(),
-        ) {
-            let p = GuideParams { epsilon: eps, ..GuideParams::default() };
-            same_in_lanes(&walks, &p, seed)?;
         }
     }
 

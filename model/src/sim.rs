@@ -58,18 +58,18 @@ pub const HULL: [(f64, f64); 30] = [
 /// The constants of a world, unpacked once for the flight loop.
 #[derive(Clone, Copy, Debug)]
 pub struct Physics {
-    pub(crate) width: f64,
-    pub(crate) ground_y: f64,
+    width: f64,
+    ground_y: f64,
     /// Above this centre height no hull point can be below the ground.
-    pub(crate) clear_y: f64,
-    pub(crate) hull_scale: f64,
+    clear_y: f64,
+    hull_scale: f64,
     /// The hull's radius in pixels: no point moves faster than this per
     /// radian of rotation.
-    pub(crate) reach: f64,
-    pub(crate) rotation_step: f64,
-    pub(crate) thrust: f64,
-    pub(crate) gravity: f64,
-    pub(crate) max_ticks: u32,
+    reach: f64,
+    rotation_step: f64,
+    thrust: f64,
+    gravity: f64,
+    max_ticks: u32,
 }
 
 impl Physics {
@@ -102,7 +102,9 @@ pub struct Flight {
     trig_rot: f64,
     sin: f64,
     cos: f64,
-    hull: HullMemo,
+    // The lowest hull point's offset from the centre at `hull_rot`.
+    hull_rot: f64,
+    hull_low: f64,
 }
 
 impl Flight {
@@ -129,16 +131,8 @@ impl Flight {
             trig_rot: f64::NAN,
             sin: 0.0,
             cos: 0.0,
-            hull: HullMemo::NONE,
-        }
-    }
-
-    /// A flight in `state` with `ticks` flown, down or not: where a walk
-    /// of the guided pass left it.
-    pub(crate) fn ended_at(state: State, ticks: u32, touched_down: bool) -> Flight {
-        Flight {
-            touched_down,
-            ..Flight::at(state, ticks)
+            hull_rot: f64::NAN,
+            hull_low: 0.0,
         }
     }
 
@@ -243,7 +237,18 @@ impl Flight {
     /// rotation.
     #[inline(always)]
     fn hull_below(&mut self, p: &Physics, y: f64) -> bool {
-        self.hull.below(p, self.state.rot, y)
+        let rot = self.state.rot;
+        if rot != self.hull_rot {
+            // The margin dwarfs the rounding in the offsets; a NaN `hull_rot`
+            // fails the test and forces the exact path.
+            let lowest = self.hull_low - p.reach * (rot - self.hull_rot).abs() - 1e-9;
+            if y + lowest >= p.ground_y {
+                return false;
+            }
+            self.hull_low = trig::lowest_at(p.hull_scale, rot);
+            self.hull_rot = rot;
+        }
+        y + self.hull_low < p.ground_y
     }
 
     #[inline(always)]
@@ -255,45 +260,10 @@ impl Flight {
     }
 }
 
-/// The hull's lowest point at one rotation, remembered: near the ground
-/// it bounds the lowest point at nearby rotations, so that the exact
-/// minimum is looked up only when the bound cannot rule touchdown out.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct HullMemo {
-    rot: f64,
-    /// The lowest hull point's offset from the centre at `rot`.
-    low: f64,
-}
-
-impl HullMemo {
-    /// Remembers nothing: the first test looks the lowest point up.
-    pub(crate) const NONE: HullMemo = HullMemo {
-        rot: f64::NAN,
-        low: 0.0,
-    };
-
-    /// The impact test: whether any hull point at `rot`, its centre at
-    /// height `y`, is below the ground.
-    #[inline(always)]
-    pub(crate) fn below(&mut self, p: &Physics, rot: f64, y: f64) -> bool {
-        if rot != self.rot {
-            // The margin dwarfs the rounding in the offsets; a NaN `rot`
-            // remembered fails the test and forces the exact path.
-            let lowest = self.low - p.reach * (rot - self.rot).abs() - 1e-9;
-            if y + lowest >= p.ground_y {
-                return false;
-            }
-            self.low = trig::lowest_at(p.hull_scale, rot);
-            self.rot = rot;
-        }
-        y + self.low < p.ground_y
-    }
-}
-
 /// `rot` after a rotate-left tick, wrapped below −π (SPEC §1's asymmetric
 /// wrap).
 #[inline(always)]
-pub(crate) fn turned_left(p: &Physics, rot: f64) -> f64 {
+fn turned_left(p: &Physics, rot: f64) -> f64 {
     let rot = rot - p.rotation_step;
     if rot < -PI {
         // A predicted branch, not a select: see `motion`.
@@ -306,7 +276,7 @@ pub(crate) fn turned_left(p: &Physics, rot: f64) -> f64 {
 
 /// `rot` after a rotate-right tick, wrapped only above 2π.
 #[inline(always)]
-pub(crate) fn turned_right(p: &Physics, rot: f64) -> f64 {
+fn turned_right(p: &Physics, rot: f64) -> f64 {
     let rot = rot + p.rotation_step;
     if rot > TAU {
         std::hint::cold_path();
@@ -319,7 +289,7 @@ pub(crate) fn turned_right(p: &Physics, rot: f64) -> f64 {
 /// A tick's motion after any rotation or thrust: gravity, move, and the
 /// wrap at both edges.
 #[inline(always)]
-pub(crate) fn motion(p: &Physics, s: &mut State) {
+fn motion(p: &Physics, s: &mut State) {
     s.vy += -p.gravity;
     s.x += s.vx;
     s.y += s.vy;
@@ -461,7 +431,7 @@ mod tests;
 /// pass near the ground). The table holds only values computed for exactly
 /// those bits (and, for the lowest point, that hull scale), so the results
 /// are the same bit for bit.
-pub(crate) mod trig {
+mod trig {
     use std::cell::RefCell;
 
     const SLOTS: usize = 256;

@@ -15,10 +15,10 @@
 //! comes back.
 
 use iceoryx2::prelude::ZeroCopySend;
-use lander_model::evaluate::evaluate_many;
 use lander_model::learn::LearnState;
 use lander_model::{
-    Action, Env, Evaluation, Gene, GuideParams, LearnParams, Pass, StreamKey, TrainJob, TrainResult,
+    evaluate, Action, Env, Evaluation, Gene, GuideParams, LearnParams, Pass, StreamKey, TrainJob,
+    TrainResult,
 };
 use serde::{Deserialize, Serialize};
 
@@ -278,9 +278,14 @@ impl EvalJob {
     /// checks a sampled answer against.
     pub fn run(self) -> ChunkResult {
         let mut genes = self.genes;
-        let genomes = genes.chunks_mut(self.genome_length).map(|g| (self.env, g));
-        let evaluations =
-            evaluate_many(self.pass, &self.guide, self.key, self.first_index, genomes);
+        let evaluations = genes
+            .chunks_mut(self.genome_length)
+            .enumerate()
+            .map(|(i, g)| {
+                let index = self.first_index + i as u64;
+                evaluate(&self.env, self.pass, &self.guide, self.key, index, g)
+            })
+            .collect();
         let actions = match self.pass {
             Pass::Guide => genes.iter().map(|g| g.action.index()).collect(),
             Pass::Fly => Vec::new(),

@@ -22,7 +22,6 @@
 use crate::ga::Genome;
 use lander_model::Evaluation;
 use lander_protocol::spin::Spin;
-use std::cell::Cell;
 use std::panic::AssertUnwindSafe;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
@@ -34,14 +33,8 @@ use std::time::Duration;
 /// than CPUs, when the yield lets it run.
 const SPINS_BEFORE_YIELD: u32 = 256;
 
-/// What flies a generation's genomes: every `(index, genome)` the
-/// iterator yields, each shown to the callback with its evaluation as it
-/// is flown, in any order.
-pub(super) type Fly = Arc<
-    dyn Fn(&mut dyn Iterator<Item = (u64, Genome)>, &mut dyn FnMut(u64, Genome, Evaluation))
-        + Send
-        + Sync,
->;
+/// What flies genome `i` of a generation.
+pub(super) type Fly = Arc<dyn Fn(usize, &mut Genome) -> Evaluation + Send + Sync>;
 
 /// Where a genome of the generation under way stands.
 enum Slot {
@@ -96,36 +89,22 @@ impl Handover {
         }
     }
 
-    /// Flies the genomes not yet taken, each taken as soon as it is bred
-    /// and the flier has room for it (the guided pass walks several at
-    /// once), until none is left.
+    /// Flies the next genome not yet taken, as soon as it is bred, until
+    /// none is left.
     fn fly(&self) {
-        let taken = Taken {
-            handover: self,
-            flying: Cell::new(0),
-        };
-        let mut next = std::iter::from_fn(|| loop {
+        loop {
             let i = self.claimed.fetch_add(1, Ordering::Relaxed);
             if i >= self.population() {
-                return None;
+                return;
             }
+            let _done = Done(self);
             wait_until(|| self.ready.load(Ordering::Acquire) > i);
-            match std::mem::replace(&mut *self.slot(i), Slot::Empty) {
-                Slot::Bred(genome) => {
-                    taken.flying.set(taken.flying.get() + 1);
-                    return Some((i as u64, genome));
-                }
-                // Breeding ended short of it.
-                _ => {
-                    self.done.fetch_add(1, Ordering::Release);
-                }
+            let taken = std::mem::replace(&mut *self.slot(i), Slot::Empty);
+            if let Slot::Bred(mut genome) = taken {
+                let evaluation = (self.fly)(i, &mut genome);
+                *self.slot(i) = Slot::Flown(genome, evaluation);
             }
-        });
-        (self.fly)(&mut next, &mut |i, genome, evaluation| {
-            *self.slot(i as usize) = Slot::Flown(genome, evaluation);
-            taken.flying.set(taken.flying.get() - 1);
-            self.done.fetch_add(1, Ordering::Release);
-        });
+        }
     }
 
     /// Waits until every genome taken has been flown, then returns them in
@@ -151,22 +130,16 @@ impl Handover {
     }
 }
 
-/// The genomes a flier has taken and not yet flown. A panic flying them
-/// counts them as done, and as a failure, so that the breeder never waits
-/// for them in vain.
-struct Taken<'a> {
-    handover: &'a Handover,
-    flying: Cell<usize>,
-}
+/// Counts a taken genome as done when dropped, and a panic flying it as
+/// a failure, so that the breeder never waits for it in vain.
+struct Done<'a>(&'a Handover);
 
-impl Drop for Taken<'_> {
+impl Drop for Done<'_> {
     fn drop(&mut self) {
         if std::thread::panicking() {
-            self.handover.failed.store(true, Ordering::Release);
-            self.handover
-                .done
-                .fetch_add(self.flying.get(), Ordering::Release);
+            self.0.failed.store(true, Ordering::Release);
         }
+        self.0.done.fetch_add(1, Ordering::Release);
     }
 }
 
@@ -352,16 +325,6 @@ mod tests {
         evaluate(&cfg.env(0), Pass::Guide, &cfg.guided, key, i as u64, g)
     }
 
-    /// A flier that flies each genome alone with `fly`.
-    fn each(fly: fn(usize, &mut Genome) -> Evaluation) -> Fly {
-        Arc::new(move |genomes, done| {
-            for (i, mut genome) in genomes {
-                let evaluation = fly(i as usize, &mut genome);
-                done(i, genome, evaluation);
-            }
-        })
-    }
-
     fn pool(threads: usize) -> rayon::ThreadPool {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -372,7 +335,7 @@ mod tests {
     fn on(threads: usize, bred: Vec<Genome>, population: usize) -> Vec<(Genome, Evaluation)> {
         let pool = pool(threads);
         let crew = Arc::new(Crew::new(threads, Duration::from_micros(200)));
-        pool.install(|| crew.fly_as_bred(&pool, bred.into_iter(), population, each(fly)))
+        pool.install(|| crew.fly_as_bred(&pool, bred.into_iter(), population, Arc::new(fly)))
     }
 
     /// Waits up to a second for `done`.
@@ -428,8 +391,9 @@ mod tests {
             let pool = pool(2);
             let crew = Arc::new(Crew::new(2, spin));
             for generation in 0..20 {
-                let flown = pool
-                    .install(|| crew.fly_as_bred(&pool, genomes(30).into_iter(), 30, each(fly)));
+                let flown = pool.install(|| {
+                    crew.fly_as_bred(&pool, genomes(30).into_iter(), 30, Arc::new(fly))
+                });
                 assert!(flown == alone, "generation {generation}, spin {spin:?}");
                 assert!(
                     crew.on_duty.load(Ordering::SeqCst) <= 1,
@@ -449,7 +413,7 @@ mod tests {
     fn a_panic_flying_a_genome_reaches_the_breeder() {
         let pool = pool(2);
         let crew = Arc::new(Crew::new(2, Duration::from_millis(5)));
-        let panicking = each(|i, g| {
+        let panicking: Fly = Arc::new(|i, g: &mut Genome| {
             assert!(i != 17, "genome 17 cannot fly");
             fly(i, g)
         });
@@ -459,7 +423,7 @@ mod tests {
         assert!(result.is_err(), "the panic was lost");
         // The crew is whole for the next generation.
         let flown =
-            pool.install(|| crew.fly_as_bred(&pool, genomes(30).into_iter(), 30, each(fly)));
+            pool.install(|| crew.fly_as_bred(&pool, genomes(30).into_iter(), 30, Arc::new(fly)));
         assert!(flown == on(1, genomes(30), 30));
     }
 }
