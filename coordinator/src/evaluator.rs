@@ -318,6 +318,13 @@ impl InProcess {
     pub fn thread_count(&self) -> usize {
         self.pool.current_num_threads()
     }
+
+    /// Runs `work` with this evaluator on one of its own threads, where
+    /// every `install` in it runs in place ([`Evaluator::drive`]).
+    pub fn on_own_thread<R: Send>(&mut self, work: impl FnOnce(&mut InProcess) -> R + Send) -> R {
+        let pool = Arc::clone(&self.pool);
+        pool.install(|| work(self))
+    }
 }
 
 impl Evaluator for InProcess {
@@ -328,8 +335,7 @@ impl Evaluator for InProcess {
     /// `work` runs on a thread of the pool, so that every `install` in it
     /// (evaluating, breeding) runs in place.
     fn drive(&mut self, work: &mut (dyn FnMut(&mut dyn Evaluator) + Send)) {
-        let pool = Arc::clone(&self.pool);
-        pool.install(|| work(self));
+        self.on_own_thread(|me| work(me));
     }
 
     fn evaluate_many(
@@ -346,8 +352,14 @@ impl Evaluator for InProcess {
             Ok([batch]) if !batch.is_bred() && pool.current_num_threads() > 1 => {
                 vec![batch.evaluate_as_bred(crew, pool)]
             }
-            Ok([batch]) => vec![batch.evaluate_here()],
-            Err(batches) => batches.into_par_iter().map(Batch::evaluate_here).collect(),
+            Ok([batch]) => {
+                crew.dismiss();
+                vec![batch.evaluate_here()]
+            }
+            Err(batches) => {
+                crew.dismiss();
+                batches.into_par_iter().map(Batch::evaluate_here).collect()
+            }
         }))
     }
 }

@@ -83,7 +83,7 @@ pub fn run(work: &Workload, modes: &mut [Mode], plan: &Plan) -> Result<Report, E
     if !work.steps.is_empty() {
         for m in modes.iter_mut() {
             let _placed = m.place_thread();
-            m.step(work, 0)?;
+            m.block(work, 0..1)?;
             m.reset();
         }
     }
@@ -93,9 +93,7 @@ pub fn run(work: &Workload, modes: &mut [Mode], plan: &Plan) -> Result<Report, E
             let mode = &mut modes[(i + round) % k];
             // Placed as a run's loop is, for the whole block.
             let _placed = mode.place_thread();
-            for g in 0..work.steps.len() {
-                mode.step(work, g)?;
-            }
+            mode.block(work, 0..work.steps.len())?;
         }
         modes.iter_mut().for_each(Mode::end_round);
     }

@@ -109,6 +109,10 @@ impl Measured for Fake {
         self.workers
     }
 
+    fn drive_measured(&mut self, work: &mut (dyn FnMut(&mut dyn Measured) + Send)) {
+        work(self)
+    }
+
     fn take_timings(&mut self) -> Vec<ChunkTiming> {
         let Some(mut compute) = self.compute_ns else {
             return Vec::new();

@@ -13,6 +13,7 @@ use lander_protocol::host::{process_cpu_time, thread_cpu_time, Pinned};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::hash::{DefaultHasher, Hash, Hasher};
+use std::ops::Range;
 use std::time::{Duration, Instant};
 
 /// What a mode is: how it evaluates, and over how many threads or workers.
@@ -86,11 +87,19 @@ pub trait Measured: Evaluator {
     fn place_thread(&self) -> Option<Pinned> {
         None
     }
+
+    /// Runs `work` where a run's loop runs: on one of the evaluator's own
+    /// threads where it has any ([`Evaluator::drive`]), here otherwise.
+    fn drive_measured(&mut self, work: &mut (dyn FnMut(&mut dyn Measured) + Send));
 }
 
 impl Measured for InProcess {
     fn workers(&self) -> usize {
         self.thread_count()
+    }
+
+    fn drive_measured(&mut self, work: &mut (dyn FnMut(&mut dyn Measured) + Send)) {
+        self.on_own_thread(|me| work(me))
     }
 }
 
@@ -110,6 +119,10 @@ impl Measured for IpcPool {
     fn place_thread(&self) -> Option<Pinned> {
         IpcPool::place_thread(self)
     }
+
+    fn drive_measured(&mut self, work: &mut (dyn FnMut(&mut dyn Measured) + Send)) {
+        work(self)
+    }
 }
 
 impl Measured for ZenohPool {
@@ -127,6 +140,10 @@ impl Measured for ZenohPool {
 
     fn place_thread(&self) -> Option<Pinned> {
         ZenohPool::place_thread(self)
+    }
+
+    fn drive_measured(&mut self, work: &mut (dyn FnMut(&mut dyn Measured) + Send)) {
+        work(self)
     }
 }
 
@@ -195,62 +212,28 @@ impl Mode {
         self.evaluator.place_thread()
     }
 
-    /// Evaluates step `g` of the workload, breeding what a run breeds.
-    pub fn step(&mut self, work: &Workload, g: usize) -> Result<(), EvalError> {
-        let ga = &work.cfg.ga;
-        let mut genomes: Vec<Vec<Genome>> = work.steps[g]
-            .iter()
-            .map(|p| match p.bred_from {
-                Some(_) => Vec::with_capacity(p.genomes.len()),
-                None => p.genomes.clone(),
-            })
-            .collect();
-        let mut batches: Vec<Batch<'_>> = work.steps[g]
-            .iter()
-            .zip(&mut genomes)
-            .map(|(p, genomes)| {
-                let offspring = p
-                    .bred_from
-                    .as_ref()
-                    .map(|from| offspring(ga, &from.genomes, &from.fitness, p.key));
-                Batch::new(
-                    p.env,
-                    work.pass,
-                    work.cfg.guided,
-                    p.key,
-                    ga.max_duration,
-                    genomes,
-                )
-                .breeding(offspring)
-            })
-            .collect();
-        let (cpu, process_cpu) = (thread_cpu_time(), process_cpu_time());
-        let started = Instant::now();
-        if batches.len() > 1 {
-            // As `lander experiment` steps its trials: bred all at once, in
-            // parallel, then flown together. A single trial in flight is
-            // bred as `lander run` breeds it, by the evaluator.
-            on_threads(&*self.evaluator, || {
-                batches.par_iter_mut().for_each(|b| {
-                    b.bred_genomes();
-                })
-            });
-        }
-        let evaluations = self.evaluator.evaluate_many(batches)?;
-        let wall = started.elapsed();
-        self.tally.elapsed += wall;
-        self.tally.coordinator_cpu += thread_cpu_time().saturating_sub(cpu);
-        self.tally.process_cpu += process_cpu_time().saturating_sub(process_cpu);
-        self.tally.generations += 1;
-        for (evaluations, genomes) in evaluations.iter().zip(&genomes) {
-            self.tally.genomes += evaluations.len() as u64;
-            self.tally.ticks += evaluations.iter().map(|e| e.simulated_ticks).sum::<u64>();
-            hash_results(&mut self.hasher, evaluations, genomes);
-        }
-        let timings = self.evaluator.take_timings();
-        self.tally.breakdowns.extend(Breakdown::of(&timings, wall));
-        self.tally.timings.extend(timings);
-        Ok(())
+    /// Evaluates the workload's steps `steps` back to back, breeding what a
+    /// run breeds, where a run's loop runs them
+    /// ([`Measured::drive_measured`]): in-process, on an evaluation
+    /// thread, so that each generation reaches the threads as a run's
+    /// does, not handed over from this thread.
+    pub fn block(&mut self, work: &Workload, steps: Range<usize>) -> Result<(), EvalError> {
+        let Mode {
+            evaluator,
+            tally,
+            hasher,
+            ..
+        } = self;
+        let mut result = Ok(());
+        evaluator.drive_measured(&mut |evaluator| {
+            for g in steps.clone() {
+                if let Err(e) = step(evaluator, tally, hasher, work, g) {
+                    result = Err(e);
+                    return;
+                }
+            }
+        });
+        result
     }
 
     /// Closes a round: its results must hash the same as every other round's.
@@ -265,6 +248,71 @@ impl Mode {
         self.tally = Tally::new();
         self.hasher = DefaultHasher::new();
     }
+}
+
+/// Evaluates step `g` of the workload with `evaluator`, breeding what a
+/// run breeds, into `tally` and `hasher`.
+fn step(
+    evaluator: &mut dyn Measured,
+    tally: &mut Tally,
+    hasher: &mut DefaultHasher,
+    work: &Workload,
+    g: usize,
+) -> Result<(), EvalError> {
+    let ga = &work.cfg.ga;
+    let mut genomes: Vec<Vec<Genome>> = work.steps[g]
+        .iter()
+        .map(|p| match p.bred_from {
+            Some(_) => Vec::with_capacity(p.genomes.len()),
+            None => p.genomes.clone(),
+        })
+        .collect();
+    let mut batches: Vec<Batch<'_>> = work.steps[g]
+        .iter()
+        .zip(&mut genomes)
+        .map(|(p, genomes)| {
+            let offspring = p
+                .bred_from
+                .as_ref()
+                .map(|from| offspring(ga, &from.genomes, &from.fitness, p.key));
+            Batch::new(
+                p.env,
+                work.pass,
+                work.cfg.guided,
+                p.key,
+                ga.max_duration,
+                genomes,
+            )
+            .breeding(offspring)
+        })
+        .collect();
+    let (cpu, process_cpu) = (thread_cpu_time(), process_cpu_time());
+    let started = Instant::now();
+    if batches.len() > 1 {
+        // As `lander experiment` steps its trials: bred all at once, in
+        // parallel, then flown together. A single trial in flight is bred
+        // as `lander run` breeds it, by the evaluator.
+        on_threads(&*evaluator, || {
+            batches.par_iter_mut().for_each(|b| {
+                b.bred_genomes();
+            })
+        });
+    }
+    let evaluations = evaluator.evaluate_many(batches)?;
+    let wall = started.elapsed();
+    tally.elapsed += wall;
+    tally.coordinator_cpu += thread_cpu_time().saturating_sub(cpu);
+    tally.process_cpu += process_cpu_time().saturating_sub(process_cpu);
+    tally.generations += 1;
+    for (evaluations, genomes) in evaluations.iter().zip(&genomes) {
+        tally.genomes += evaluations.len() as u64;
+        tally.ticks += evaluations.iter().map(|e| e.simulated_ticks).sum::<u64>();
+        hash_results(hasher, evaluations, genomes);
+    }
+    let timings = evaluator.take_timings();
+    tally.breakdowns.extend(Breakdown::of(&timings, wall));
+    tally.timings.extend(timings);
+    Ok(())
 }
 
 fn hash_results(h: &mut impl Hasher, evaluations: &[Evaluation], genomes: &[Genome]) {

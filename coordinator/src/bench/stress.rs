@@ -38,8 +38,8 @@ pub struct StressReport {
 /// `churned`, as one round each.
 pub fn fly(work: &Workload, reference: &mut Mode, churned: &mut Mode) -> Result<(), EvalError> {
     for g in 0..work.steps.len() {
-        reference.step(work, g)?;
-        churned.step(work, g)?;
+        reference.block(work, g..g + 1)?;
+        churned.block(work, g..g + 1)?;
     }
     reference.end_round();
     churned.end_round();

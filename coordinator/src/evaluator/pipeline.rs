@@ -14,10 +14,10 @@
 //! machine, a sixth of a two-thread generation. So a helper that has flown
 //! its share does not go back to rayon at once: it polls for the next
 //! generation for a bounded, adaptive time ([`Spin`], as a worker process
-//! does), running any other rayon work it finds meanwhile, and only then
-//! retires to rayon's pool, where its thread sleeps. It spins only where
-//! every thread of the pool has a CPU of its own; the next generation
-//! calls a retired helper back.
+//! does), and only then retires to rayon's pool, where its thread sleeps.
+//! It spins only where every thread of the pool has a CPU of its own; the
+//! next generation calls a retired helper back, and work of another kind
+//! for the pool (a batch flown whole) dismisses it at once.
 
 use crate::ga::Genome;
 use lander_model::Evaluation;
@@ -159,6 +159,8 @@ pub(super) struct Crew {
     posted: AtomicU64,
     /// Helpers called and not yet retired.
     on_duty: AtomicUsize,
+    /// How often the helpers were dismissed (`dismiss`).
+    dismissed: AtomicU64,
     /// The spins of retired helpers, whose budgets the next ones keep.
     spins: Mutex<Vec<Spin>>,
 }
@@ -173,6 +175,7 @@ impl Crew {
             board: Mutex::new((0, None)),
             posted: AtomicU64::new(0),
             on_duty: AtomicUsize::new(0),
+            dismissed: AtomicU64::new(0),
             spins: Mutex::new(Vec::new()),
         }
     }
@@ -217,7 +220,9 @@ impl Crew {
                 .lock()
                 .unwrap_or_else(PoisonError::into_inner)
                 .pop();
-            pool.spawn(move || crew.serve(spin));
+            // Dismissals from now on send it back, even one before it starts.
+            let dismissals = self.dismissed.load(Ordering::SeqCst);
+            pool.spawn(move || crew.serve(spin, dismissals));
         }
     }
 
@@ -232,7 +237,7 @@ impl Crew {
 
     /// A helper's life: fly every generation posted, polling for the next
     /// between them, until one does not come within the spin.
-    fn serve(&self, spin: Option<Spin>) {
+    fn serve(&self, spin: Option<Spin>, mut dismissals: u64) {
         let mut spin = spin.unwrap_or_else(|| Spin::new(self.spin));
         spin.woke();
         let mut seen = 0;
@@ -255,19 +260,33 @@ impl Crew {
                 }
                 continue;
             }
-            // Other work on the pool (a batch flown whole, say) is done
-            // while polling, so that a helper on duty never holds it up.
+            // No other work of the pool is taken up while polling: it
+            // could be the breeder's own, which would then find its helper
+            // on duty and fly alone. Work of another kind dismisses the
+            // helpers instead (`dismiss`).
             let next = spin.poll(|| {
                 self.posted.load(Ordering::SeqCst) != seen
-                    || matches!(rayon::yield_now(), Some(rayon::Yield::Executed))
+                    || self.dismissed.load(Ordering::SeqCst) != dismissals
             });
-            if !next && !self.retire() {
+            let now = self.dismissed.load(Ordering::SeqCst);
+            let dismissed = now != dismissals;
+            dismissals = now;
+            if (!next || dismissed) && !self.retire() {
                 self.spins
                     .lock()
                     .unwrap_or_else(PoisonError::into_inner)
                     .push(spin);
                 return;
             }
+        }
+    }
+
+    /// Sends the helpers polling for a generation back to the pool, where
+    /// their threads take up other work at once: for a batch flown whole
+    /// rather than as it is bred.
+    pub(super) fn dismiss(&self) {
+        if self.on_duty.load(Ordering::SeqCst) > 0 {
+            self.dismissed.fetch_add(1, Ordering::SeqCst);
         }
     }
 
@@ -425,5 +444,44 @@ mod tests {
         let flown =
             pool.install(|| crew.fly_as_bred(&pool, genomes(30).into_iter(), 30, Arc::new(fly)));
         assert!(flown == on(1, genomes(30), 30));
+    }
+
+    #[test]
+    fn a_generation_handed_in_from_outside_the_pool_is_flown_by_every_thread() {
+        use std::collections::HashSet;
+        let pool = pool(2);
+        let crew = Arc::new(Crew::new(2, Duration::from_millis(200)));
+        let fliers = Arc::new(Mutex::new(HashSet::new()));
+        let seen = Arc::clone(&fliers);
+        // Slow enough that a thread free to fly takes some.
+        let slow: Fly = Arc::new(move |i, g: &mut Genome| {
+            std::thread::sleep(Duration::from_millis(1));
+            seen.lock().unwrap().insert(std::thread::current().id());
+            fly(i, g)
+        });
+        for generation in 0..4 {
+            fliers.lock().unwrap().clear();
+            // From this thread, outside the pool, as `lander bench` handed
+            // generations in: a helper still polling must not take the
+            // breeder's work up and leave itself to fly nothing.
+            pool.install(|| {
+                crew.fly_as_bred(&pool, genomes(20).into_iter(), 20, Arc::clone(&slow))
+            });
+            assert_eq!(fliers.lock().unwrap().len(), 2, "generation {generation}");
+        }
+    }
+
+    #[test]
+    fn dismissed_helpers_go_back_to_the_pool_before_their_spin_ends() {
+        let pool = pool(2);
+        // A spin far longer than the test waits.
+        let crew = Arc::new(Crew::new(2, Duration::from_secs(5)));
+        pool.install(|| crew.fly_as_bred(&pool, genomes(20).into_iter(), 20, Arc::new(fly)));
+        assert_eq!(crew.on_duty.load(Ordering::SeqCst), 1, "the helper polls");
+        crew.dismiss();
+        assert!(
+            eventually(|| crew.on_duty.load(Ordering::SeqCst) == 0),
+            "a dismissed helper still on duty"
+        );
     }
 }
