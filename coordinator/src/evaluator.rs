@@ -22,9 +22,9 @@ use pipeline::Crew;
 /// `(key, i)`, so the results do not depend on who flies which genome.
 ///
 /// A trial's generation may not be bred yet: [`bred_genomes`](Batch::bred_genomes)
-/// breeds it first, and [`evaluate_here`](Batch::evaluate_here) on more
-/// than one thread flies each genome as soon as it is bred, while the next
-/// are bred (`pipeline`).
+/// and [`evaluate_here`](Batch::evaluate_here) breed it first, and
+/// `evaluate_as_bred`, on more than one thread, flies each genome as soon
+/// as it is bred, while the next are bred (`pipeline`).
 pub struct Batch<'a> {
     pub env: Env,
     pub pass: Pass,
@@ -252,7 +252,10 @@ pub const DEFAULT_SPIN: Duration = Duration::from_micros(DEFAULT_SPIN_US);
 /// nothing where they would share one: a spinning thread would take its
 /// CPU from the thread it waits for.
 fn own_cpus_spin(threads: usize, spin: Duration) -> Duration {
-    let cpus = lander_protocol::host::allowed_cpus().len();
+    // The CPUs this process may run on, fewer where a cgroup's quota caps
+    // them.
+    let allowed = lander_protocol::host::allowed_cpus().len();
+    let cpus = std::thread::available_parallelism().map_or(allowed, |n| allowed.min(n.get()));
     if threads <= cpus {
         spin
     } else {
@@ -323,7 +326,10 @@ impl InProcess {
     /// every `install` in it runs in place ([`Evaluator::drive`]).
     pub fn on_own_thread<R: Send>(&mut self, work: impl FnOnce(&mut InProcess) -> R + Send) -> R {
         let pool = Arc::clone(&self.pool);
-        pool.install(|| work(self))
+        let result = pool.install(|| work(self));
+        // Nothing more of this work is coming for the helpers to poll for.
+        self.crew.dismiss();
+        result
     }
 }
 
@@ -370,6 +376,8 @@ impl Trainer for InProcess {
         jobs: &[TrainJob],
         done: &mut dyn FnMut(usize, &TrainResult),
     ) -> Result<Vec<TrainResult>, EvalError> {
+        // Training is work of another kind: polling helpers make way.
+        self.crew.dismiss();
         let (tx, rx) = std::sync::mpsc::channel();
         let (pool, stop) = (&self.pool, &self.stop);
         let mut results: Vec<Option<TrainResult>> = jobs.iter().map(|_| None).collect();

@@ -47,7 +47,7 @@ enum Slot {
 /// back.
 struct Handover {
     slots: Vec<Mutex<Slot>>,
-    fly: Fly,
+    flier: Fly,
     /// Genomes bred so far: slots below it are filled.
     ready: AtomicUsize,
     /// The next genome to fly.
@@ -63,7 +63,7 @@ impl Handover {
     fn new(population: usize, fly: Fly) -> Handover {
         Handover {
             slots: (0..population).map(|_| Mutex::new(Slot::Empty)).collect(),
-            fly,
+            flier: fly,
             ready: AtomicUsize::new(0),
             claimed: AtomicUsize::new(0),
             done: AtomicUsize::new(0),
@@ -101,7 +101,7 @@ impl Handover {
             wait_until(|| self.ready.load(Ordering::Acquire) > i);
             let taken = std::mem::replace(&mut *self.slot(i), Slot::Empty);
             if let Slot::Bred(mut genome) = taken {
-                let evaluation = (self.fly)(i, &mut genome);
+                let evaluation = (self.flier)(i, &mut genome);
                 *self.slot(i) = Slot::Flown(genome, evaluation);
             }
         }
@@ -115,17 +115,13 @@ impl Handover {
             !self.failed.load(Ordering::Acquire),
             "an evaluation thread panicked flying a genome"
         );
-        self.slots
-            .iter()
-            .filter_map(|slot| {
-                match std::mem::replace(
-                    &mut *slot.lock().unwrap_or_else(PoisonError::into_inner),
-                    Slot::Empty,
-                ) {
+        (0..self.population())
+            .filter_map(
+                |i| match std::mem::replace(&mut *self.slot(i), Slot::Empty) {
                     Slot::Flown(genome, evaluation) => Some((genome, evaluation)),
                     _ => None,
-                }
-            })
+                },
+            )
             .collect()
     }
 }
@@ -252,11 +248,9 @@ impl Crew {
                     // A panic flying a genome is the breeder's to raise
                     // (`Done` marks it); on a pool's spawned job it would
                     // abort the process.
-                    let flown = std::panic::catch_unwind(AssertUnwindSafe(|| handover.fly()));
-                    if flown.is_err() {
-                        let _ = self.retire();
-                        return;
-                    }
+                    // The helper serves on: the generation is the
+                    // breeder's to fail, and the crew stays whole.
+                    let _ = std::panic::catch_unwind(AssertUnwindSafe(|| handover.fly()));
                 }
                 continue;
             }
@@ -271,7 +265,7 @@ impl Crew {
             let now = self.dismissed.load(Ordering::SeqCst);
             let dismissed = now != dismissals;
             dismissals = now;
-            if (!next || dismissed) && !self.retire() {
+            if (!next || dismissed) && !self.retire(seen) {
                 self.spins
                     .lock()
                     .unwrap_or_else(PoisonError::into_inner)
@@ -285,16 +279,13 @@ impl Crew {
     /// their threads take up other work at once: for a batch flown whole
     /// rather than as it is bred.
     pub(super) fn dismiss(&self) {
-        if self.on_duty.load(Ordering::SeqCst) > 0 {
-            self.dismissed.fetch_add(1, Ordering::SeqCst);
-        }
+        self.dismissed.fetch_add(1, Ordering::SeqCst);
     }
 
     /// Takes a helper off duty; says whether it must stay after all,
-    /// because a generation was posted while it retired and no other
-    /// helper was called in its place.
-    fn retire(&self) -> bool {
-        let seen = self.posted.load(Ordering::SeqCst);
+    /// because a generation after `seen`, the last it looked at, was
+    /// posted and no other helper was called in its place.
+    fn retire(&self, seen: u64) -> bool {
         self.on_duty.fetch_sub(1, Ordering::SeqCst);
         self.posted.load(Ordering::SeqCst) != seen && self.take_duty()
     }
@@ -431,7 +422,7 @@ mod tests {
     #[test]
     fn a_panic_flying_a_genome_reaches_the_breeder() {
         let pool = pool(2);
-        let crew = Arc::new(Crew::new(2, Duration::from_millis(5)));
+        let crew = Arc::new(Crew::new(2, Duration::from_millis(200)));
         let panicking: Fly = Arc::new(|i, g: &mut Genome| {
             assert!(i != 17, "genome 17 cannot fly");
             fly(i, g)
@@ -440,25 +431,48 @@ mod tests {
             pool.install(|| crew.fly_as_bred(&pool, genomes(30).into_iter(), 30, panicking))
         }));
         assert!(result.is_err(), "the panic was lost");
-        // The crew is whole for the next generation.
-        let flown =
-            pool.install(|| crew.fly_as_bred(&pool, genomes(30).into_iter(), 30, Arc::new(fly)));
-        assert!(flown == on(1, genomes(30), 30));
+        assert!(
+            crew.on_duty.load(Ordering::SeqCst) <= 1,
+            "one helper at most"
+        );
+        // The crew is whole for the next generations: both threads fly.
+        let (slow, fliers) = slow_and_watched();
+        for generation in 0..2 {
+            fliers.lock().unwrap().clear();
+            let flown = pool.install(|| {
+                crew.fly_as_bred(&pool, genomes(20).into_iter(), 20, Arc::clone(&slow))
+            });
+            assert!(flown == on(1, genomes(20), 20), "generation {generation}");
+            assert_eq!(fliers.lock().unwrap().len(), 2, "generation {generation}");
+            assert!(
+                crew.on_duty.load(Ordering::SeqCst) <= 1,
+                "one helper at most"
+            );
+        }
+        crew.dismiss();
     }
 
-    #[test]
-    fn a_generation_handed_in_from_outside_the_pool_is_flown_by_every_thread() {
-        use std::collections::HashSet;
-        let pool = pool(2);
-        let crew = Arc::new(Crew::new(2, Duration::from_millis(200)));
-        let fliers = Arc::new(Mutex::new(HashSet::new()));
+    /// A flier slow enough that a thread free to fly takes some genomes,
+    /// and the threads that flew them.
+    fn slow_and_watched() -> (
+        Fly,
+        Arc<Mutex<std::collections::HashSet<std::thread::ThreadId>>>,
+    ) {
+        let fliers = Arc::new(Mutex::new(std::collections::HashSet::new()));
         let seen = Arc::clone(&fliers);
-        // Slow enough that a thread free to fly takes some.
         let slow: Fly = Arc::new(move |i, g: &mut Genome| {
             std::thread::sleep(Duration::from_millis(1));
             seen.lock().unwrap().insert(std::thread::current().id());
             fly(i, g)
         });
+        (slow, fliers)
+    }
+
+    #[test]
+    fn a_generation_handed_in_from_outside_the_pool_is_flown_by_every_thread() {
+        let pool = pool(2);
+        let crew = Arc::new(Crew::new(2, Duration::from_millis(200)));
+        let (slow, fliers) = slow_and_watched();
         for generation in 0..4 {
             fliers.lock().unwrap().clear();
             // From this thread, outside the pool, as `lander bench` handed
@@ -469,6 +483,7 @@ mod tests {
             });
             assert_eq!(fliers.lock().unwrap().len(), 2, "generation {generation}");
         }
+        crew.dismiss();
     }
 
     #[test]
