@@ -193,8 +193,9 @@ pub trait Evaluator {
     /// This process's threads for other work between evaluations, such as
     /// breeding the next generations of the trials in flight: the
     /// evaluation threads themselves, where there are any, so that two sets
-    /// of threads never contend for the cores; `None` for rayon's global
-    /// pool.
+    /// of threads never contend for the cores. `None` where there are
+    /// none: batches are then best handed over still to be bred, as a pool
+    /// breeds each chunk as it hands it out, its workers flying meanwhile.
     fn threads(&self) -> Option<&rayon::ThreadPool> {
         None
     }
@@ -212,15 +213,6 @@ pub trait Evaluator {
     /// worker processes.
     fn worker_busy(&self) -> Option<std::time::Duration> {
         None
-    }
-}
-
-/// Runs `work` on `evaluator`'s own threads ([`Evaluator::threads`]), or
-/// on rayon's global pool where it has none.
-pub fn on_threads<R: Send>(evaluator: &dyn Evaluator, work: impl FnOnce() -> R + Send) -> R {
-    match evaluator.threads() {
-        Some(pool) => pool.install(work),
-        None => work(),
     }
 }
 

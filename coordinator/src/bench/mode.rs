@@ -4,7 +4,7 @@
 
 use super::figures::{overheads, percentile, Breakdown};
 use super::Workload;
-use crate::evaluator::{on_threads, Batch, EvalError, Evaluator, InProcess};
+use crate::evaluator::{Batch, EvalError, Evaluator, InProcess};
 use crate::ga::Genome;
 use crate::pool::{ChunkTiming, IpcPool, ZenohPool};
 use crate::trial::offspring;
@@ -288,11 +288,12 @@ fn step(
         .collect();
     let (cpu, process_cpu) = (thread_cpu_time(), process_cpu_time());
     let started = Instant::now();
-    if batches.len() > 1 {
-        // As `lander experiment` steps its trials: bred all at once, in
-        // parallel, then flown together. A single trial in flight is bred
-        // as `lander run` breeds it, by the evaluator.
-        on_threads(&*evaluator, || {
+    // As `lander experiment` steps its trials: in-process, bred all at
+    // once on the evaluation threads, then flown together; over a pool,
+    // each bred as it is handed out. A single trial in flight is bred as
+    // `lander run` breeds it, by the evaluator.
+    if let (true, Some(threads)) = (batches.len() > 1, evaluator.threads()) {
+        threads.install(|| {
             batches.par_iter_mut().for_each(|b| {
                 b.bred_genomes();
             })

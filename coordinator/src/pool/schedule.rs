@@ -442,17 +442,18 @@ impl<T: Transport> Pool<T> {
 
     /// Hands the last of `chunks`, just cut while the rest of its generation
     /// is still to be bred, to the next worker with room, round-robin, and
-    /// wakes a worker with the first such chunk it gets. Where none has
-    /// room, the chunk waits for the hand-out.
+    /// wakes a worker with the first such chunk it gets. The worker beside
+    /// the coordinator's thread gets none: it could fly them only once the
+    /// coordinator stops breeding, while the others fly theirs meanwhile.
+    /// Where none has room, the chunk waits for the hand-out.
     pub(super) fn hand_early(&mut self, chunks: &[Chunk], early: &mut Early) {
         let Some(chunk) = chunks.len().checked_sub(1) else {
             return;
         };
         let links = self.links.len();
-        let Some(i) = (0..links)
-            .map(|k| (early.next + k) % links)
-            .find(|&i| self.links[i].has_room())
-        else {
+        let Some(i) = (0..links).map(|k| (early.next + k) % links).find(|&i| {
+            self.links[i].has_room() && !self.children.beside_coordinator(self.links[i].pid())
+        }) else {
             return;
         };
         early.next = i + 1;

@@ -128,6 +128,17 @@ impl Children {
         self.procs.iter().any(|p| p.child.id() == pid)
     }
 
+    /// True if `pid` is a live worker started here on the CPU that the
+    /// coordinator's thread shares with it ([`Placement::coordinator`]).
+    pub fn beside_coordinator(&self, pid: u32) -> bool {
+        let Some(cpu) = self.placement.coordinator else {
+            return false;
+        };
+        self.procs
+            .iter()
+            .any(|p| p.child.id() == pid && p.cpu == Some(cpu))
+    }
+
     /// Starts one more worker, on the next free CPU if any, and returns
     /// its pid.
     pub fn spawn(&mut self) -> Result<u32, EvalError> {

@@ -359,8 +359,8 @@ impl<T: Transport> Pool<T> {
     /// until the guard is dropped; `None` elsewhere, or with a warning if
     /// it cannot be pinned. Scoped to the loop, so that the threads and
     /// pools the caller starts before or after it run anywhere; rayon's
-    /// global pool, which breeds an experiment's trials inside the loop,
-    /// is started first for the same reason.
+    /// global pool, should anything in the loop use it, is started first
+    /// for the same reason (a thread inherits its creator's CPUs).
     pub fn place_thread(&self) -> Option<Pinned> {
         let cpu = self.beside?;
         rayon::broadcast(|_| ());

@@ -1,10 +1,15 @@
-//! `dispatch` and `rebalance` alone, over links that only record what they
-//! are sent.
+//! `dispatch`, `hand_early` and `rebalance` alone, over links that only
+//! record what they are sent (behind them, stand-in processes where a test
+//! needs one pinned beside the coordinator).
 
 use super::fake::{no_chunks, Nowhere, Recorder};
 use crate::pool::progress::Progress;
+use crate::pool::schedule::Early;
+use crate::pool::spawn::{Children, Placement};
 use crate::pool::{Pool, DEPTH};
 use std::collections::VecDeque;
+use std::os::unix::fs::PermissionsExt;
+use std::time::Duration;
 
 fn pool(links: Vec<Vec<usize>>) -> Pool<Nowhere> {
     let links = (0..)
@@ -67,4 +72,56 @@ fn nothing_moves_while_chunks_wait_or_no_one_has_a_backlog() {
     assert_eq!(flying, (vec![vec![], vec![0], vec![1]], vec![]));
     let busy = rebalanced(vec![vec![5], vec![0, 1, 2]], &[]);
     assert_eq!(busy, (vec![vec![5], vec![0, 1, 2]], vec![]));
+}
+
+/// Hands out `n` chunks one by one, as a generation is bred, and returns
+/// which each link was sent and how many went out early.
+fn handed_early(pool: &mut Pool<Nowhere>, n: usize) -> (Vec<Vec<usize>>, usize) {
+    let chunks = no_chunks(n);
+    let mut early = Early::default();
+    for cut in 1..=n {
+        pool.hand_early(&chunks[..cut], &mut early);
+    }
+    let sent = pool.links.iter().map(|l| l.chunks.clone()).collect();
+    (sent, early.sent.len())
+}
+
+#[test]
+fn chunks_bred_one_by_one_go_round_robin_to_workers_with_room() {
+    let mut pool = pool(vec![Vec::new(); 2]);
+    // Ten chunks: eight fill both queues, two wait for the hand-out.
+    assert_eq!(
+        handed_early(&mut pool, 10),
+        (vec![vec![0, 2, 4, 6], vec![1, 3, 5, 7]], 8)
+    );
+}
+
+#[test]
+fn chunks_bred_one_by_one_skip_the_worker_beside_the_coordinator() {
+    let dir = tempfile::tempdir().unwrap();
+    let exe = dir.path().join("worker.sh");
+    std::fs::write(&exe, "#!/bin/sh\nexec sleep 30\n").unwrap();
+    std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
+    // A stand-in worker pinned to each CPU: the last shares its CPU with
+    // the coordinator's thread.
+    let allowed = lander_protocol::host::allowed_cpus();
+    let placement = Placement::new(allowed.len(), &allowed, true, Duration::ZERO);
+    let mut children = Children::new(exe, "t".into(), Vec::new(), 0, placement);
+    let links = (0..allowed.len())
+        .map(|i| Recorder {
+            pid: children.spawn().unwrap(),
+            ..Recorder::holding(i as u64, Vec::new())
+        })
+        .collect();
+    let mut pool = super::fake::pool(links, Default::default());
+    pool.children = children;
+    let others = allowed.len() - 1;
+    let (sent, early) = handed_early(&mut pool, allowed.len() * DEPTH);
+    assert_eq!(sent.last(), Some(&vec![]), "the coordinator's neighbour");
+    assert!(
+        sent[..others].iter().all(|s| s.len() == DEPTH),
+        "every other worker fills its queue: {sent:?}"
+    );
+    assert_eq!(early, others * DEPTH, "the rest wait for the hand-out");
+    assert_eq!(pool.children.stop_all(&[]), 0);
 }

@@ -20,11 +20,13 @@ pub struct Recorder {
     pub answer: Option<Vec<u8>>,
     pub fails_checks: bool,
     pub broken: bool,
+    pub pid: u32,
 }
 
 impl Recorder {
     pub fn holding(id: u64, chunks: Vec<usize>) -> Recorder {
         Recorder {
+            pid: 0,
             id,
             chunks,
             sent: Vec::new(),
@@ -40,7 +42,7 @@ impl WorkerLink for Recorder {
         self.id
     }
     fn pid(&self) -> u32 {
-        0
+        self.pid
     }
     fn has_room(&self) -> bool {
         self.chunks.len() < DEPTH && !self.broken
