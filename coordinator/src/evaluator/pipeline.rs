@@ -247,9 +247,8 @@ impl Crew {
                 if let Some(handover) = handover {
                     // A panic flying a genome is the breeder's to raise
                     // (`Done` marks it); on a pool's spawned job it would
-                    // abort the process.
-                    // The helper serves on: the generation is the
-                    // breeder's to fail, and the crew stays whole.
+                    // abort the process. The helper serves on, so that the
+                    // crew stays whole.
                     let _ = std::panic::catch_unwind(AssertUnwindSafe(|| handover.fly()));
                 }
                 continue;

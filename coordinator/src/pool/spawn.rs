@@ -356,19 +356,25 @@ pub fn kill_worker_child(parent: u32, pid: u32) -> bool {
     sent == 0
 }
 
+/// A stand-in worker written into `dir`: it never announces itself and
+/// would take 30 s to end on its own.
+#[cfg(test)]
+pub(super) fn stand_in_worker(dir: &std::path::Path) -> PathBuf {
+    use std::os::unix::fs::PermissionsExt;
+    let exe = dir.join("worker.sh");
+    std::fs::write(&exe, "#!/bin/sh\nexec sleep 30\n").unwrap();
+    std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
+    exe
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::os::unix::fs::PermissionsExt;
 
     #[test]
     fn a_worker_that_never_joined_is_terminated_not_waited_for_and_killed() {
         let dir = tempfile::tempdir().unwrap();
-        // A stand-in worker that never announces itself and would take 30 s
-        // to end on its own.
-        let exe = dir.path().join("worker.sh");
-        std::fs::write(&exe, "#!/bin/sh\nexec sleep 30\n").unwrap();
-        std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
+        let exe = stand_in_worker(dir.path());
         let mut children = Children::new(exe, "r".into(), Vec::new(), 0, Placement::default());
         children.spawn().unwrap();
         children.spawn().unwrap();

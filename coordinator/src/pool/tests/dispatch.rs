@@ -5,10 +5,9 @@
 use super::fake::{no_chunks, Nowhere, Recorder};
 use crate::pool::progress::Progress;
 use crate::pool::schedule::Early;
-use crate::pool::spawn::{Children, Placement};
+use crate::pool::spawn::{stand_in_worker, Children, Placement};
 use crate::pool::{Pool, DEPTH};
 use std::collections::VecDeque;
-use std::os::unix::fs::PermissionsExt;
 use std::time::Duration;
 
 fn pool(links: Vec<Vec<usize>>) -> Pool<Nowhere> {
@@ -99,9 +98,7 @@ fn chunks_bred_one_by_one_go_round_robin_to_workers_with_room() {
 #[test]
 fn chunks_bred_one_by_one_skip_the_worker_beside_the_coordinator() {
     let dir = tempfile::tempdir().unwrap();
-    let exe = dir.path().join("worker.sh");
-    std::fs::write(&exe, "#!/bin/sh\nexec sleep 30\n").unwrap();
-    std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let exe = stand_in_worker(dir.path());
     // A stand-in worker pinned to each CPU: the last shares its CPU with
     // the coordinator's thread.
     let allowed = lander_protocol::host::allowed_cpus();
