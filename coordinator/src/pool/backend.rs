@@ -1,7 +1,8 @@
 //! The pool as a [`Backend`](crate::evaluator::Backend): the [`Evaluator`]
 //! and [`Trainer`] impls, which turn batches of genomes and Q(λ) trials
 //! into chunks, and the answers back into evaluations (writing the guided
-//! pass's actions into the genomes) and training results.
+//! pass's actions into the genomes) and training results; and whether a
+//! step's batches are bred as they are handed out or first (`Pace`).
 
 use super::schedule::{chunk_ranges, Chunk, Early};
 use super::verify::{self, Check};
@@ -9,11 +10,14 @@ use super::{Pool, Transport};
 use crate::evaluator::{Batch, EvalError, Evaluator, Trainer};
 use lander_model::learn::run_training;
 use lander_model::{Action, Evaluation, TrainJob, TrainResult};
+use lander_protocol::host::thread_cpu_time;
 use lander_protocol::wire::{
     decode_training, pack_state, ChunkResult, JobHeader, WireGene, KIND_EVALUATE, KIND_TRAIN,
     PROTOCOL_VERSION,
 };
+use rayon::prelude::*;
 use std::ops::Range;
+use std::time::Duration;
 
 impl<T: Transport> Trainer for Pool<T> {
     /// One chunk per trial or leg, with no deadline: a dead trainer is
@@ -80,6 +84,15 @@ impl<T: Transport> Evaluator for Pool<T> {
         // About `chunks_per_worker` chunks per worker in all, however many
         // batches share them.
         let per_batch = (workers * self.opts.chunks_per_worker).div_ceil(batches.len().max(1));
+        let (several, busy) = (
+            batches.len() > 1 && batches.iter().any(|b| !b.is_bred()),
+            self.busy,
+        );
+        let mut breeding = Duration::ZERO;
+        if several && !self.pace.keeps_up(self.at_once(workers)) {
+            breeding = breed_in_parallel(&mut batches);
+        }
+        let cutting = thread_cpu_time();
         let mut chunks = Vec::new();
         // For each chunk: its batch, the genomes it covers, their length.
         let mut spans = Vec::new();
@@ -105,6 +118,7 @@ impl<T: Transport> Evaluator for Pool<T> {
                 }
             }
         }
+        breeding += thread_cpu_time().saturating_sub(cutting);
         // The guided actions go back into the genomes as each answer
         // arrives, while other workers still fly: at a generation's end
         // only the last answers' are left to write.
@@ -131,6 +145,12 @@ impl<T: Transport> Evaluator for Pool<T> {
                 );
             },
         )?;
+        if several {
+            self.pace = Pace {
+                breeding,
+                flying: self.busy.saturating_sub(busy),
+            };
+        }
         let mut evaluations: Vec<Vec<Evaluation>> = batches
             .iter()
             .map(|b| Vec::with_capacity(b.len()))
@@ -139,6 +159,55 @@ impl<T: Transport> Evaluator for Pool<T> {
             evaluations[*b].extend(result.evaluations);
         }
         Ok(evaluations)
+    }
+}
+
+impl<T: Transport> Pool<T> {
+    /// How many of `workers` fly at once: workers spawned here no more
+    /// than there are CPUs to run them.
+    fn at_once(&self, workers: usize) -> usize {
+        if self.opts.spawn > 0 {
+            workers.min(lander_protocol::host::allowed_cpus().len().max(1))
+        } else {
+            workers
+        }
+    }
+}
+
+/// Breeds every batch first, in parallel on rayon's pool, while the
+/// workers wait (one thread would not keep them busy); returns the CPU
+/// time it took, summed over the threads.
+fn breed_in_parallel(batches: &mut [Batch<'_>]) -> Duration {
+    batches
+        .par_iter_mut()
+        .map(|b| {
+            let cpu = thread_cpu_time();
+            b.bred_genomes();
+            thread_cpu_time().saturating_sub(cpu)
+        })
+        .sum()
+}
+
+/// What a step of several batches still to be bred cost: the
+/// coordinator's CPU time breeding them and cutting their chunks, and the
+/// workers' time flying them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Pace {
+    pub breeding: Duration,
+    pub flying: Duration,
+}
+
+impl Pace {
+    /// Whether the coordinator, breeding the batches one after another and
+    /// handing each chunk out as soon as it is bred, keeps `workers`
+    /// workers busy. Bred so, a step takes at least the breeding; spread
+    /// over the workers, the step's work takes (breeding + flying) /
+    /// workers. So it keeps up while breeding × (workers − 1) ≤ flying;
+    /// otherwise a step's batches are better bred first, in parallel,
+    /// while the workers wait. Before any step, it keeps up.
+    pub(super) fn keeps_up(&self, workers: usize) -> bool {
+        let others = u32::try_from(workers.saturating_sub(1)).unwrap_or(u32::MAX);
+        self.breeding.saturating_mul(others) <= self.flying
     }
 }
 

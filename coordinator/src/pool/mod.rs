@@ -136,6 +136,8 @@ pub struct Pool<T: Transport> {
     timings: Option<Vec<ChunkTiming>>,
     /// The workers' own time on every chunk answered, summed.
     busy: std::time::Duration,
+    /// What the last step of several batches cost to breed and to fly.
+    pace: backend::Pace,
     /// The host each connected worker announced, by worker id.
     hosts: HashMap<u64, String>,
     /// Workers that have had an answer taken (`--verify` checks every

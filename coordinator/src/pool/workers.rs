@@ -59,6 +59,7 @@ impl<T: Transport> Pool<T> {
             told_waiting: false,
             timings: None,
             busy: std::time::Duration::ZERO,
+            pace: Default::default(),
             hosts: HashMap::new(),
             vetted: HashSet::new(),
             telemetry,
@@ -359,8 +360,10 @@ impl<T: Transport> Pool<T> {
     /// until the guard is dropped; `None` elsewhere, or with a warning if
     /// it cannot be pinned. Scoped to the loop, so that the threads and
     /// pools the caller starts before or after it run anywhere; rayon's
-    /// global pool, should anything in the loop use it, is started first
-    /// for the same reason (a thread inherits its creator's CPUs).
+    /// global pool, which breeds an experiment's trials inside the loop
+    /// where one thread would not keep the workers busy (`Pace`), is
+    /// started first for the same reason (a thread inherits its creator's
+    /// CPUs).
     pub fn place_thread(&self) -> Option<Pinned> {
         let cpu = self.beside?;
         rayon::broadcast(|_| ());

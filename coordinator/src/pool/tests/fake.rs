@@ -5,19 +5,24 @@ use crate::pool::{
     Answer, Arrival, Chunk, ChunkTiming, Pool, PoolOptions, Transport, WorkerLink, DEPTH,
 };
 use crate::stop::Stop;
-use lander_protocol::wire::{JobHeader, WireGene};
+use lander_protocol::wire::{EvalJob, JobHeader, WireGene};
+use std::collections::HashMap;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 /// Records what it is sent; with an `answer`, answers every chunk with it
 /// at the next poll, or, if it `fails_checks`, all but the last, whose
-/// answer fails the link's own checks and breaks it.
+/// answer fails the link's own checks and breaks it. One that `flies`
+/// evaluates each chunk as a worker does, and answers with the result.
 pub struct Recorder {
     pub id: u64,
     pub chunks: Vec<usize>,
     /// Every chunk it was ever sent, in order.
     pub sent: Vec<usize>,
     pub answer: Option<Vec<u8>>,
+    pub flies: bool,
+    /// The answers of a link that flies, by chunk.
+    pub flown: HashMap<usize, Vec<u8>>,
     pub fails_checks: bool,
     pub broken: bool,
     pub pid: u32,
@@ -31,9 +36,18 @@ impl Recorder {
             chunks,
             sent: Vec::new(),
             answer: None,
+            flies: false,
+            flown: HashMap::new(),
             fails_checks: false,
             broken: false,
         }
+    }
+
+    /// Its answer to `chunk`: the same for every chunk, or the chunk's
+    /// result if it flies.
+    fn answer(&self, chunk: usize) -> Option<Vec<u8>> {
+        let flown = || self.flown.get(&chunk).cloned();
+        self.answer.clone().or_else(flown)
     }
 }
 
@@ -64,19 +78,27 @@ impl WorkerLink for Recorder {
     }
     fn send(
         &mut self,
-        _: JobHeader,
-        _: &[WireGene],
+        header: JobHeader,
+        genes: &[WireGene],
         chunk: usize,
         _: Option<Duration>,
     ) -> Result<(), String> {
+        if self.flies {
+            let job = EvalJob::from_wire(&header, genes).map_err(|e| e.to_string())?;
+            self.flown.insert(chunk, job.run().encode());
+        }
         self.chunks.push(chunk);
         self.sent.push(chunk);
         Ok(())
     }
     fn poll(&mut self) -> (Vec<Answer>, Option<String>) {
-        let Some(body) = &self.answer else {
+        if self
+            .chunks
+            .first()
+            .is_none_or(|&c| self.answer(c).is_none())
+        {
             return (Vec::new(), None);
-        };
+        }
         let timing = ChunkTiming {
             worker: self.id,
             sent_ns: 0,
@@ -86,12 +108,12 @@ impl WorkerLink for Recorder {
         };
         let keep = usize::from(self.fails_checks && !self.chunks.is_empty());
         let good = self.chunks.len() - keep;
-        let answers = self
-            .chunks
-            .drain(..good)
+        let answered: Vec<usize> = self.chunks.drain(..good).collect();
+        let answers = answered
+            .into_iter()
             .map(|chunk| Answer {
                 chunk,
-                body: body.clone(),
+                body: self.answer(chunk).unwrap_or_default(),
                 timing,
             })
             .collect();

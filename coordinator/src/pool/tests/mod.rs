@@ -3,6 +3,7 @@
 //! transport, except where a test needs a real child process.
 
 mod answers;
+mod breeding;
 mod checks;
 mod chunking;
 mod deaths;

@@ -1,0 +1,103 @@
+//! A step of several batches still to be bred: whether the pool breeds
+//! them as it hands them out or first, in parallel (`Pace`), each flies as
+//! it does in-process.
+
+use super::fake::{Nowhere, Recorder};
+use crate::config::RunConfig;
+use crate::evaluator::{Batch, Evaluator, InProcess};
+use crate::ga::{random_population, Genome};
+use crate::pool::backend::Pace;
+use crate::pool::Pool;
+use crate::trial::offspring;
+use lander_model::stream::streams;
+use lander_model::{Evaluation, Pass, StreamKey};
+use std::time::Duration;
+
+const TRIALS: u64 = 3;
+
+/// Each trial's parents, and their made-up fitness.
+fn parents(cfg: &RunConfig) -> Vec<(Vec<Genome>, Vec<f64>)> {
+    (0..TRIALS)
+        .map(|t| {
+            let mut rng = StreamKey::new(9, t, 0, 1).rng(streams::OPERATORS);
+            let genomes = random_population(&cfg.ga, &mut rng);
+            let fitness = (0..genomes.len()).map(|i| (i % 7) as f64).collect();
+            (genomes, fitness)
+        })
+        .collect()
+}
+
+/// Flies one step of `TRIALS` batches still to be bred on `evaluator`.
+fn step(evaluator: &mut dyn Evaluator) -> (Vec<Vec<Evaluation>>, Vec<Vec<Genome>>) {
+    let cfg = RunConfig::default();
+    let from = parents(&cfg);
+    let mut genomes: Vec<Vec<Genome>> = vec![Vec::new(); from.len()];
+    let batches: Vec<Batch<'_>> = (0..)
+        .zip(&from)
+        .zip(&mut genomes)
+        .map(|((t, (parents, fitness)), genomes)| {
+            let key = StreamKey::new(9, t, 0, 2);
+            let bred = offspring(&cfg.ga, parents, fitness, key);
+            Batch::new(
+                cfg.env(0),
+                Pass::Guide,
+                cfg.guided,
+                key,
+                cfg.ga.max_duration,
+                genomes,
+            )
+            .breeding(Some(bred))
+        })
+        .collect();
+    let evaluations = evaluator.evaluate_many(batches).unwrap();
+    (evaluations, genomes)
+}
+
+/// A pool over two links that fly each chunk as a worker does, paced as
+/// `pace` says.
+fn paced(pace: Pace) -> Pool<Nowhere> {
+    let links = (0..2)
+        .map(|id| Recorder {
+            flies: true,
+            ..Recorder::holding(id, Vec::new())
+        })
+        .collect();
+    let mut pool = super::fake::pool(links, Default::default());
+    pool.pace = pace;
+    pool
+}
+
+#[test]
+fn batches_bred_as_handed_out_or_first_fly_as_in_process() {
+    let in_process = step(&mut InProcess::new(2).unwrap());
+    let slow_breeding = Pace {
+        breeding: Duration::from_millis(10),
+        flying: Duration::from_millis(1),
+    };
+    for pace in [Pace::default(), slow_breeding] {
+        let mut pool = paced(pace);
+        assert!(step(&mut pool) == in_process, "{pace:?}");
+        // The step's breeding was timed, for the next step to go by.
+        assert!(pool.pace.breeding > Duration::ZERO, "{pace:?}");
+    }
+}
+
+#[test]
+fn breeding_as_handed_out_keeps_up_while_one_thread_does_not_hold_the_workers_up() {
+    let pace = |breeding, flying| Pace {
+        breeding: Duration::from_micros(breeding),
+        flying: Duration::from_micros(flying),
+    };
+    // Before any step, and with a single worker, it keeps up.
+    assert!(Pace::default().keeps_up(8));
+    assert!(pace(400, 100).keeps_up(1));
+    // 400 µs of breeding beside 900 µs of flying: the step's work spread
+    // over two workers takes (400 + 900) / 2 = 650 µs, over three 433 µs,
+    // both more than the breeding; over four 325 µs, over eight 163 µs,
+    // less.
+    assert!(pace(400, 900).keeps_up(2));
+    assert!(pace(400, 900).keeps_up(3));
+    assert!(!pace(400, 900).keeps_up(4));
+    assert!(!pace(400, 900).keeps_up(8));
+    assert!(pace(400, 2800).keeps_up(8));
+}
