@@ -25,13 +25,22 @@ use lander_protocol::spin::Spin;
 use std::panic::AssertUnwindSafe;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Spins on a genome not yet bred, or on a helper's last flight, before
 /// yielding the CPU: breeding a genome takes about half a microsecond,
 /// and the breeder has a CPU of its own unless there are more threads
 /// than CPUs, when the yield lets it run.
 const SPINS_BEFORE_YIELD: u32 = 256;
+
+/// How long a wait yields before it sleeps. Flying a genome takes a few
+/// microseconds; a wait this long means the thread waited for is not
+/// running (the host took its CPU), and yielding would keep this CPU busy
+/// for nothing until it runs again.
+const YIELDS_FOR: Duration = Duration::from_micros(200);
+
+/// Between looks, once a wait sleeps.
+const NAP: Duration = Duration::from_micros(50);
 
 /// What flies genome `i` of a generation.
 pub(super) type Fly = Arc<dyn Fn(usize, &mut Genome) -> Evaluation + Send + Sync>;
@@ -299,14 +308,21 @@ impl Drop for AllReady<'_> {
     }
 }
 
+/// Waits until `done`: spins, then yields, then sleeps, each for a bounded
+/// while.
 fn wait_until(done: impl Fn() -> bool) {
-    let mut spins = 0;
+    for _ in 0..SPINS_BEFORE_YIELD {
+        if done() {
+            return;
+        }
+        std::hint::spin_loop();
+    }
+    let yielding = Instant::now();
     while !done() {
-        if spins < SPINS_BEFORE_YIELD {
-            spins += 1;
-            std::hint::spin_loop();
-        } else {
+        if yielding.elapsed() < YIELDS_FOR {
             std::thread::yield_now();
+        } else {
+            std::thread::sleep(NAP);
         }
     }
 }
@@ -318,6 +334,7 @@ mod tests {
     use crate::ga::random_population;
     use lander_model::stream::streams;
     use lander_model::{evaluate, Pass, StreamKey};
+    use lander_protocol::host::thread_cpu_time;
 
     fn genomes(n: usize) -> Vec<Genome> {
         let mut cfg = RunConfig::default();
@@ -497,5 +514,27 @@ mod tests {
             eventually(|| crew.on_duty.load(Ordering::SeqCst) == 0),
             "a dismissed helper still on duty"
         );
+    }
+
+    #[test]
+    fn a_long_wait_sleeps_and_ends_when_its_condition_holds() {
+        // Past the spin and the yields, into the naps.
+        let long = YIELDS_FOR * 100;
+        let set = Arc::new(AtomicBool::new(false));
+        let setter = {
+            let set = set.clone();
+            std::thread::spawn(move || {
+                std::thread::sleep(long);
+                set.store(true, Ordering::Release);
+            })
+        };
+        let (started, cpu) = (Instant::now(), thread_cpu_time());
+        wait_until(|| set.load(Ordering::Acquire));
+        assert!(set.load(Ordering::Acquire));
+        assert!(started.elapsed() >= long);
+        // A wait that yielded throughout would have kept its CPU busy.
+        let busy = thread_cpu_time() - cpu;
+        assert!(busy < long / 2, "the wait kept its CPU busy {busy:?}");
+        setter.join().unwrap();
     }
 }
