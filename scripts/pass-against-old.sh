@@ -106,7 +106,7 @@ debug = "line-tables-only"
 EOF
 cp "$root/Cargo.lock" "$old/"
 bench_exe() {
-    (cd "$1" && cargo bench $2 --bench flight --no-run --message-format json 2>/dev/null) |
+    (cd "$1" && cargo bench $2 --bench flight --no-run --message-format json --quiet) |
         python3 -c 'import json,sys
 for l in sys.stdin:
     m = json.loads(l)
@@ -115,6 +115,10 @@ for l in sys.stdin:
 }
 new_exe=$(bench_exe "$root" --workspace)
 old_exe=$(bench_exe "$old" "")
+if [[ -z $new_exe || -z $old_exe ]]; then
+    echo "pass-against-old.sh: a flight bench did not build (today's: '$new_exe', $commit's: '$old_exe')" >&2
+    exit 1
+fi
 for ((i = 1; i <= rounds; i++)); do
     for side in new old; do
         if [[ $side == new ]]; then exe=$new_exe dir=$root; else exe=$old_exe dir=$old; fi

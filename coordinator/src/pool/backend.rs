@@ -84,10 +84,8 @@ impl<T: Transport> Evaluator for Pool<T> {
         // About `chunks_per_worker` chunks per worker in all, however many
         // batches share them.
         let per_batch = (workers * self.opts.chunks_per_worker).div_ceil(batches.len().max(1));
-        let (several, busy) = (
-            batches.len() > 1 && batches.iter().any(|b| !b.is_bred()),
-            self.busy,
-        );
+        let several = batches.len() > 1 && batches.iter().any(|b| !b.is_bred());
+        let busy = self.busy;
         let mut breeding = Duration::ZERO;
         if several && !self.pace.keeps_up(self.at_once(workers)) {
             breeding = breed_in_parallel(&mut batches);
@@ -167,7 +165,7 @@ impl<T: Transport> Pool<T> {
     /// than there are CPUs to run them.
     fn at_once(&self, workers: usize) -> usize {
         if self.opts.spawn > 0 {
-            workers.min(lander_protocol::host::allowed_cpus().len().max(1))
+            workers.min(self.cpus)
         } else {
             workers
         }

@@ -131,6 +131,8 @@ pub struct Pool<T: Transport> {
     /// The CPU the thread running the pool's loop shares with the last
     /// worker, where there is a worker on every CPU (`Placement`).
     beside: Option<usize>,
+    /// The CPUs this process may run on, at least one.
+    cpus: usize,
     told_waiting: bool,
     /// Kept only when asked for, so long runs do not accumulate them.
     timings: Option<Vec<ChunkTiming>>,

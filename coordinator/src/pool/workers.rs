@@ -35,14 +35,11 @@ impl<T: Transport> Pool<T> {
         opts: PoolOptions,
         telemetry: Telemetry,
     ) -> Result<Pool<T>, EvalError> {
-        let placement = Placement::new(
-            opts.spawn,
-            &lander_protocol::host::allowed_cpus(),
-            opts.pin,
-            opts.spin,
-        );
+        let allowed = lander_protocol::host::allowed_cpus();
+        let placement = Placement::new(opts.spawn, &allowed, opts.pin, opts.spin);
         let mut pool = Pool {
             beside: placement.coordinator,
+            cpus: allowed.len().max(1),
             children: Children::new(
                 opts.worker_exe.clone(),
                 opts.run_id.clone(),

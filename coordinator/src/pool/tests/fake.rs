@@ -45,9 +45,11 @@ impl Recorder {
 
     /// Its answer to `chunk`: the same for every chunk, or the chunk's
     /// result if it flies.
-    fn answer(&self, chunk: usize) -> Option<Vec<u8>> {
-        let flown = || self.flown.get(&chunk).cloned();
-        self.answer.clone().or_else(flown)
+    fn body(&mut self, chunk: usize) -> Vec<u8> {
+        match &self.answer {
+            Some(body) => body.clone(),
+            None => self.flown.remove(&chunk).unwrap_or_default(),
+        }
     }
 }
 
@@ -92,11 +94,7 @@ impl WorkerLink for Recorder {
         Ok(())
     }
     fn poll(&mut self) -> (Vec<Answer>, Option<String>) {
-        if self
-            .chunks
-            .first()
-            .is_none_or(|&c| self.answer(c).is_none())
-        {
+        if self.answer.is_none() && !self.flies {
             return (Vec::new(), None);
         }
         let timing = ChunkTiming {
@@ -113,7 +111,7 @@ impl WorkerLink for Recorder {
             .into_iter()
             .map(|chunk| Answer {
                 chunk,
-                body: self.answer(chunk).unwrap_or_default(),
+                body: self.body(chunk),
                 timing,
             })
             .collect();
