@@ -42,6 +42,15 @@ const YIELDS_FOR: Duration = Duration::from_micros(200);
 /// Between looks, once a wait sleeps.
 const NAP: Duration = Duration::from_micros(50);
 
+/// The tracing target of each generation's phases, at `trace`: how long
+/// the trial's own step took before it (`between_us`, from the last
+/// generation's collection), breeding (`breed_us`, the other threads
+/// flying meanwhile), flying the rest on every thread (`fly_us`), waiting
+/// for the helpers' last flights (`collect_us`), and how many genomes the
+/// breeder flew itself. `RUST_LOG=lander::pipeline=trace` shows them;
+/// `scripts/pipeline-phases.py` sums them up.
+pub const PHASES: &str = "lander::pipeline";
+
 /// What flies genome `i` of a generation.
 pub(super) type Fly = Arc<dyn Fn(usize, &mut Genome) -> Evaluation + Send + Sync>;
 
@@ -99,13 +108,15 @@ impl Handover {
     }
 
     /// Flies the next genome not yet taken, as soon as it is bred, until
-    /// none is left.
-    fn fly(&self) {
+    /// none is left; returns how many this thread flew.
+    fn fly(&self) -> usize {
+        let mut flew = 0;
         loop {
             let i = self.claimed.fetch_add(1, Ordering::Relaxed);
             if i >= self.population() {
-                return;
+                return flew;
             }
+            flew += 1;
             let _done = Done(self);
             wait_until(|| self.ready.load(Ordering::Acquire) > i);
             let taken = std::mem::replace(&mut *self.slot(i), Slot::Empty);
@@ -168,6 +179,8 @@ pub(super) struct Crew {
     dismissed: AtomicU64,
     /// The spins of retired helpers, whose budgets the next ones keep.
     spins: Mutex<Vec<Spin>>,
+    /// When the last generation was collected, where [`PHASES`] is traced.
+    collected: Mutex<Option<Instant>>,
 }
 
 impl Crew {
@@ -182,6 +195,7 @@ impl Crew {
             on_duty: AtomicUsize::new(0),
             dismissed: AtomicU64::new(0),
             spins: Mutex::new(Vec::new()),
+            collected: Mutex::new(None),
         }
     }
 
@@ -195,14 +209,52 @@ impl Crew {
         population: usize,
         fly: Fly,
     ) -> Vec<(Genome, Evaluation)> {
+        let traced = tracing::enabled!(target: PHASES, tracing::Level::TRACE);
+        let posted = Instant::now();
         let handover = Arc::new(Handover::new(population, fly));
         self.post(Arc::clone(&handover));
         self.call_helpers(pool);
         handover.breed(bred);
-        handover.fly();
+        let bred_at = traced.then(Instant::now);
+        let flown_here = handover.fly();
+        let flown_at = traced.then(Instant::now);
         // The handover stays on the board, empty, until the next replaces
         // it: taking it off would call the helpers for nothing.
-        handover.collect()
+        let flown = handover.collect();
+        if let (Some(bred_at), Some(flown_at)) = (bred_at, flown_at) {
+            self.trace_phases(posted, bred_at, flown_at, flown_here, flown.len());
+        }
+        flown
+    }
+
+    /// Says how a generation's time went (see [`PHASES`]).
+    fn trace_phases(
+        &self,
+        posted: Instant,
+        bred: Instant,
+        flown: Instant,
+        flown_here: usize,
+        population: usize,
+    ) {
+        let now = Instant::now();
+        let mut collected = self
+            .collected
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        let micros = |d: Duration| d.as_secs_f64() * 1e6;
+        tracing::trace!(
+            target: PHASES,
+            between_us = collected.map(|c| micros(posted.saturating_duration_since(c))),
+            breed_us = micros(bred - posted),
+            fly_us = micros(flown - bred),
+            collect_us = micros(now - flown),
+            breeder_flew = flown_here,
+            population,
+            "generation flown as bred"
+        );
+        // After the line is written, so that writing it is not counted as
+        // the trial's step.
+        *collected = Some(Instant::now());
     }
 
     /// Puts a generation on the board under a new number.
@@ -536,5 +588,74 @@ mod tests {
         let busy = thread_cpu_time() - cpu;
         assert!(busy < long / 2, "the wait kept its CPU busy {busy:?}");
         setter.join().unwrap();
+    }
+
+    /// The fields of each line of the phase trace.
+    #[derive(Clone, Default)]
+    struct Traced(Arc<Mutex<Vec<std::collections::HashMap<&'static str, f64>>>>);
+
+    impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for Traced {
+        fn on_event(
+            &self,
+            event: &tracing::Event<'_>,
+            _: tracing_subscriber::layer::Context<'_, S>,
+        ) {
+            if event.metadata().target() == PHASES {
+                let mut fields = Fields::default();
+                event.record(&mut fields);
+                self.0.lock().unwrap().push(fields.0);
+            }
+        }
+    }
+
+    #[derive(Default)]
+    struct Fields(std::collections::HashMap<&'static str, f64>);
+
+    impl tracing::field::Visit for Fields {
+        fn record_f64(&mut self, field: &tracing::field::Field, value: f64) {
+            self.0.insert(field.name(), value);
+        }
+        fn record_u64(&mut self, field: &tracing::field::Field, value: u64) {
+            self.0.insert(field.name(), value as f64);
+        }
+        fn record_debug(&mut self, _: &tracing::field::Field, _: &dyn std::fmt::Debug) {}
+    }
+
+    #[test]
+    fn the_phase_trace_says_how_each_generation_went() {
+        use tracing_subscriber::layer::SubscriberExt;
+        let traced = Traced::default();
+        let subscriber = tracing_subscriber::registry().with(traced.clone());
+        let pool = pool(2);
+        let crew = Arc::new(Crew::new(2, Duration::from_millis(200)));
+        let (slow, _) = slow_and_watched();
+        // This thread breeds, so that the trace reaches its subscriber.
+        tracing::subscriber::with_default(subscriber, || {
+            for _ in 0..3 {
+                crew.fly_as_bred(&pool, genomes(30).into_iter(), 30, Arc::clone(&slow));
+            }
+        });
+        crew.dismiss();
+        let lines = traced.0.lock().unwrap().clone();
+        assert_eq!(lines.len(), 3, "a line a generation");
+        assert!(
+            !lines[0].contains_key("between_us"),
+            "nothing before the first"
+        );
+        for (generation, line) in lines.iter().enumerate() {
+            let field = |name: &str| line.get(name).copied().unwrap_or(f64::NAN);
+            assert_eq!(field("population"), 30.0, "generation {generation}");
+            let flew = field("breeder_flew");
+            // Each flight takes at least a millisecond: the other thread
+            // takes some, and the breeder's own are all in `fly_us`.
+            assert!(flew > 0.0 && flew < 30.0, "the breeder flew {flew}");
+            assert!(field("fly_us") >= 1000.0 * flew, "generation {generation}");
+            for phase in ["breed_us", "collect_us"] {
+                assert!(field(phase) >= 0.0, "{phase} in generation {generation}");
+            }
+            if generation > 0 {
+                assert!(field("between_us") >= 0.0, "generation {generation}");
+            }
+        }
     }
 }

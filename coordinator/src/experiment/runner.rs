@@ -99,6 +99,7 @@ pub fn run<K: Copy + Send + Sync>(
         .iter()
         .partition(|t| t.cfg.method == Method::Qlearning);
     let mut evolved = Ok(());
+    let started = Instant::now();
     backend.drive(&mut |evaluator| {
         let most = InFlight {
             trials: in_flight.max(1),
@@ -107,7 +108,16 @@ pub fn run<K: Copy + Send + Sync>(
         evolved = evolve(&evolving, evaluator, most, progress);
     });
     evolved?;
-    learn(&learning, backend, progress)
+    let evolved_at = Instant::now();
+    learn(&learning, backend, progress)?;
+    tracing::debug!(
+        ga_trials = evolving.len(),
+        ga_s = (evolved_at - started).as_secs_f64(),
+        qlearning_trials = learning.len(),
+        qlearning_s = evolved_at.elapsed().as_secs_f64(),
+        "trials run"
+    );
+    Ok(())
 }
 
 struct Running<K> {
