@@ -31,8 +31,9 @@ use std::time::{Duration, Instant};
 const COMMAND_TIMEOUT: Duration = Duration::from_secs(30);
 /// How long a page may take to fire its `load` event.
 const LOAD_TIMEOUT: Duration = Duration::from_secs(60);
-/// How long a dropped page's browser gets to close before it is killed.
-const CLOSE_GRACE: Duration = Duration::from_secs(3);
+/// How long a dropped page's browser gets to close before it is killed,
+/// and then how long its orphans get to go.
+pub const CLOSE_GRACE: Duration = Duration::from_secs(3);
 
 /// The Chromium binary to use: the file `CHROMIUM` names if it is set,
 /// otherwise the first of `chromium`, `chromium-browser`, `google-chrome`

@@ -247,5 +247,8 @@ fn dropping_the_page_ends_every_browser_process() {
     let took = start.elapsed();
     assert_eq!(group_members(pid), Vec::<u32>::new());
     assert!(!Path::new(&format!("/proc/{pid}")).exists());
-    assert!(took < Duration::from_secs(5), "closing took {took:?}");
+    // Two graces at most (the browser's, then its orphans'), and a margin
+    // for a loaded host: what counts is that dropping ends.
+    let most = 2 * browser::CLOSE_GRACE + Duration::from_secs(2);
+    assert!(took < most, "closing took {took:?}");
 }

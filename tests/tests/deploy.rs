@@ -177,6 +177,9 @@ fn coordinator(dir: &Path, run_id: &str, extra: &[&str]) -> Proc {
             .args(["run", "--out", s(&out)])
             .args(RUN)
             .args(["--attach", "--run-id", run_id, "--transport", "zenoh"])
+            // Every test here starts two member workers: the run is too
+            // short to be sure the second joins before it ends otherwise.
+            .args(["--min-workers", "2"])
             .args(extra),
     );
     coordinator.await_line("waiting for workers");

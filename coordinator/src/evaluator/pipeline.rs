@@ -529,8 +529,16 @@ mod tests {
         let fliers = Arc::new(Mutex::new(std::collections::HashSet::new()));
         let seen = Arc::clone(&fliers);
         let slow: Fly = Arc::new(move |i, g: &mut Genome| {
-            std::thread::sleep(Duration::from_millis(1));
             seen.lock().unwrap().insert(std::thread::current().id());
+            // Until a second thread flies too, within reason: on a loaded
+            // host a helper may wake after a breeder alone would have
+            // flown the whole generation, and the tests ask whether it
+            // takes part at all, not how soon.
+            let until = Instant::now() + Duration::from_secs(10);
+            while seen.lock().unwrap().len() < 2 && Instant::now() < until {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            std::thread::sleep(Duration::from_millis(1));
             fly(i, g)
         });
         (slow, fliers)
@@ -573,6 +581,8 @@ mod tests {
         // Past the spin and the yields, into the naps.
         let long = YIELDS_FOR * 100;
         let set = Arc::new(AtomicBool::new(false));
+        // Before the setter starts, which may run at once.
+        let (started, cpu) = (Instant::now(), thread_cpu_time());
         let setter = {
             let set = set.clone();
             std::thread::spawn(move || {
@@ -580,7 +590,6 @@ mod tests {
                 set.store(true, Ordering::Release);
             })
         };
-        let (started, cpu) = (Instant::now(), thread_cpu_time());
         wait_until(|| set.load(Ordering::Acquire));
         assert!(set.load(Ordering::Acquire));
         assert!(started.elapsed() >= long);
@@ -628,10 +637,11 @@ mod tests {
         let subscriber = tracing_subscriber::registry().with(traced.clone());
         let pool = pool(2);
         let crew = Arc::new(Crew::new(2, Duration::from_millis(200)));
-        let (slow, _) = slow_and_watched();
+        let (slow, fliers) = slow_and_watched();
         // This thread breeds, so that the trace reaches its subscriber.
         tracing::subscriber::with_default(subscriber, || {
             for _ in 0..3 {
+                fliers.lock().unwrap().clear();
                 crew.fly_as_bred(&pool, genomes(30).into_iter(), 30, Arc::clone(&slow));
             }
         });
@@ -646,8 +656,9 @@ mod tests {
             let field = |name: &str| line.get(name).copied().unwrap_or(f64::NAN);
             assert_eq!(field("population"), 30.0, "generation {generation}");
             let flew = field("breeder_flew");
-            // Each flight takes at least a millisecond: the other thread
-            // takes some, and the breeder's own are all in `fly_us`.
+            // Both threads fly (the slow flier waits for the second), and
+            // each flight takes at least a millisecond: the breeder's own
+            // are all in `fly_us`.
             assert!(flew > 0.0 && flew < 30.0, "the breeder flew {flew}");
             assert!(field("fly_us") >= 1000.0 * flew, "generation {generation}");
             for phase in ["breed_us", "collect_us"] {
