@@ -17,18 +17,21 @@ FIELDS = ["between_us", "breed_us", "fly_us", "collect_us", "breeder_flew"]
 
 def main(path):
     seen = {f: [] for f in FIELDS}
-    with open(path, encoding="utf-8") as lines:
-        for line in lines:
-            try:
-                record = json.loads(line)
-            except json.JSONDecodeError:
-                continue
-            if record.get("target") != "lander::pipeline":
-                continue
-            for field in FIELDS:
-                value = record.get("fields", {}).get(field)
-                if value is not None:
-                    seen[field].append(float(value))
+    try:
+        lines = open(path, encoding="utf-8").read().splitlines()
+    except OSError as e:
+        sys.exit(f"{path}: {e.strerror}")
+    for line in lines:
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if not isinstance(record, dict) or record.get("target") != "lander::pipeline":
+            continue
+        for field in FIELDS:
+            value = record.get("fields", {}).get(field)
+            if value is not None:
+                seen[field].append(float(value))
     generations = len(seen["breed_us"])
     if generations == 0:
         sys.exit(f"{path}: no lines of target lander::pipeline (was RUST_LOG=lander::pipeline=trace set, with --log-format json?)")
