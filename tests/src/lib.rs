@@ -274,6 +274,27 @@ pub fn worker_id_of(events: &[Value], pid: u32) -> Option<String> {
         .and_then(|e| e["worker"].as_str().map(str::to_string))
 }
 
+/// Waits until the file just written at `path` can run, running it once
+/// with `arg`, which must end it at once. A process another test forked
+/// while the file was open for writing holds it open until that process
+/// execs, and until then running the file fails as busy (ETXTBSY); once it
+/// has run, no such copy is left, and none can be made.
+pub fn ready_to_run(path: &Path, arg: &str) {
+    for _ in 0..1000 {
+        match Command::new(path).arg(arg).output() {
+            Err(e) if e.kind() == std::io::ErrorKind::ExecutableFileBusy => {
+                std::thread::sleep(std::time::Duration::from_millis(1));
+            }
+            ran => {
+                let ran = ran.unwrap();
+                assert!(ran.status.success(), "{} {arg}: {ran:?}", path.display());
+                return;
+            }
+        }
+    }
+    panic!("{} stayed busy for a second", path.display());
+}
+
 /// True once process `pid` has exited: gone, or a zombie nobody reaped
 /// (a worker that outlived its coordinator is reparented, and a
 /// container's init may never reap it).

@@ -373,9 +373,12 @@ fn spawned_workers_that_never_join_end_the_run_with_an_error() {
     let bin = dir.path().join("bin");
     std::fs::create_dir(&bin).unwrap();
     std::fs::copy(lander_tests::binary("lander"), bin.join("lander")).unwrap();
+    lander_tests::ready_to_run(&bin.join("lander"), "--version");
     let worker = bin.join("lander-worker");
-    std::fs::write(&worker, "#!/bin/sh\nexec sleep 30\n").unwrap();
+    let script = "#!/bin/sh\n[ \"$1\" = ready ] && exit 0\nexec sleep 30\n";
+    std::fs::write(&worker, script).unwrap();
     std::fs::set_permissions(&worker, std::fs::Permissions::from_mode(0o755)).unwrap();
+    lander_tests::ready_to_run(&worker, "ready");
     let started = std::time::Instant::now();
     // The copy finds the sleeping `lander-worker` beside it.
     let out = iox

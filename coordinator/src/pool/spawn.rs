@@ -360,11 +360,33 @@ pub fn kill_worker_child(parent: u32, pid: u32) -> bool {
 /// would take 30 s to end on its own.
 #[cfg(test)]
 pub(super) fn stand_in_worker(dir: &std::path::Path) -> PathBuf {
+    script(&dir.join("worker.sh"), "exec sleep 30\n")
+}
+
+/// A shell script of `body` written at `path`, executable, and ready to
+/// run: a process another test forked while the file was open for writing
+/// holds it open until that process execs, and until then running the
+/// file fails as busy (ETXTBSY). So the script is run once first, with
+/// `ready`, which ends it at once; after that no such copy is left, and
+/// none can be made, this process having closed the file.
+#[cfg(test)]
+pub(crate) fn script(path: &std::path::Path, body: &str) -> PathBuf {
     use std::os::unix::fs::PermissionsExt;
-    let exe = dir.join("worker.sh");
-    std::fs::write(&exe, "#!/bin/sh\nexec sleep 30\n").unwrap();
-    std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
-    exe
+    let text = format!("#!/bin/sh\n[ \"$1\" = ready ] && exit 0\n{body}");
+    std::fs::write(path, text).unwrap();
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o755)).unwrap();
+    for _ in 0..1000 {
+        match std::process::Command::new(path).arg("ready").status() {
+            Err(e) if e.kind() == std::io::ErrorKind::ExecutableFileBusy => {
+                std::thread::sleep(std::time::Duration::from_millis(1));
+            }
+            ran => {
+                assert!(ran.unwrap().success(), "{} cannot run", path.display());
+                return path.to_path_buf();
+            }
+        }
+    }
+    panic!("{} stayed busy for a second", path.display());
 }
 
 #[cfg(test)]

@@ -3,15 +3,12 @@
 
 use super::fake::{options, recorded, Nowhere};
 use crate::pool::{Pool, PoolOptions};
-use std::os::unix::fs::PermissionsExt;
 use std::time::Duration;
 
 #[test]
 fn a_worker_that_dies_before_it_joins_is_told_by_its_given_id_and_replaced() {
     let (dir, telemetry) = recorded();
-    let exe = dir.path().join("lander-worker");
-    std::fs::write(&exe, "#!/bin/sh\nexit 3\n").unwrap();
-    std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let exe = crate::pool::spawn::script(&dir.path().join("lander-worker"), "exit 3\n");
     let opts = PoolOptions {
         spawn: 1,
         worker_exe: exe,

@@ -3,8 +3,6 @@
 use crate::evaluator::EvalError;
 use crate::pool::{Arrival, Pool, PoolOptions, Transport};
 use lander_protocol::wire::PROTOCOL_VERSION;
-use std::io::Write;
-use std::os::unix::fs::PermissionsExt;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -54,16 +52,10 @@ impl Transport for OtherBuild {
 fn a_spawned_worker_of_another_build_ends_the_wait_at_once() {
     let dir = tempfile::tempdir().unwrap();
     let pid_file = dir.path().join("pid");
-    let exe = dir.path().join("lander-worker");
-    let mut script = std::fs::File::create(&exe).unwrap();
-    writeln!(
-        script,
-        "#!/bin/sh\necho $$ > {}\nexec sleep 60",
-        pid_file.display()
-    )
-    .unwrap();
-    drop(script);
-    std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let exe = crate::pool::spawn::script(
+        &dir.path().join("lander-worker"),
+        &format!("echo $$ > {}\nexec sleep 60\n", pid_file.display()),
+    );
     let opts = PoolOptions {
         spawn: 1,
         worker_exe: exe.clone(),
