@@ -274,6 +274,16 @@ pub fn worker_id_of(events: &[Value], pid: u32) -> Option<String> {
         .and_then(|e| e["worker"].as_str().map(str::to_string))
 }
 
+/// A shell script of `body` written at `path`, executable and
+/// [`ready_to_run`]: run with `ready`, it ends at once.
+pub fn script(path: &Path, body: &str) {
+    use std::os::unix::fs::PermissionsExt;
+    let text = format!("#!/bin/sh\n[ \"$1\" = ready ] && exit 0\n{body}");
+    std::fs::write(path, text).unwrap();
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o755)).unwrap();
+    ready_to_run(path, "ready");
+}
+
 /// Waits until the file just written at `path` can run, running it once
 /// with `arg`, which must end it at once. A process another test forked
 /// while the file was open for writing holds it open until that process

@@ -367,18 +367,13 @@ fn a_hung_worker_misses_its_deadline_and_loses_no_work() {
 /// with an error instead of waiting for ever.
 #[test]
 fn spawned_workers_that_never_join_end_the_run_with_an_error() {
-    use std::os::unix::fs::PermissionsExt;
     let iox = Iox::new("never_join");
     let dir = tempfile::tempdir().unwrap();
     let bin = dir.path().join("bin");
     std::fs::create_dir(&bin).unwrap();
     std::fs::copy(lander_tests::binary("lander"), bin.join("lander")).unwrap();
     lander_tests::ready_to_run(&bin.join("lander"), "--version");
-    let worker = bin.join("lander-worker");
-    let script = "#!/bin/sh\n[ \"$1\" = ready ] && exit 0\nexec sleep 30\n";
-    std::fs::write(&worker, script).unwrap();
-    std::fs::set_permissions(&worker, std::fs::Permissions::from_mode(0o755)).unwrap();
-    lander_tests::ready_to_run(&worker, "ready");
+    lander_tests::script(&bin.join("lander-worker"), "exec sleep 30\n");
     let started = std::time::Instant::now();
     // The copy finds the sleeping `lander-worker` beside it.
     let out = iox

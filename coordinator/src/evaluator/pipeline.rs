@@ -210,7 +210,7 @@ impl Crew {
         fly: Fly,
     ) -> Vec<(Genome, Evaluation)> {
         let traced = tracing::enabled!(target: PHASES, tracing::Level::TRACE);
-        let posted = Instant::now();
+        let posted = traced.then(Instant::now);
         let handover = Arc::new(Handover::new(population, fly));
         self.post(Arc::clone(&handover));
         self.call_helpers(pool);
@@ -221,7 +221,7 @@ impl Crew {
         // The handover stays on the board, empty, until the next replaces
         // it: taking it off would call the helpers for nothing.
         let flown = handover.collect();
-        if let (Some(bred_at), Some(flown_at)) = (bred_at, flown_at) {
+        if let (Some(posted), Some(bred_at), Some(flown_at)) = (posted, bred_at, flown_at) {
             self.trace_phases(posted, bred_at, flown_at, flown_here, flown.len());
         }
         flown

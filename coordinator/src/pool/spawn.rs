@@ -364,7 +364,8 @@ pub(super) fn stand_in_worker(dir: &std::path::Path) -> PathBuf {
 }
 
 /// A shell script of `body` written at `path`, executable, and ready to
-/// run: a process another test forked while the file was open for writing
+/// run (as `lander_tests::script`, which the coordinator's own tests
+/// cannot reach): a process another test forked while the file was open for writing
 /// holds it open until that process execs, and until then running the
 /// file fails as busy (ETXTBSY). So the script is run once first, with
 /// `ready`, which ends it at once; after that no such copy is left, and
