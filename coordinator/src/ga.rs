@@ -94,7 +94,7 @@ impl GaParams {
         check(
             "ga.population",
             genes <= MAX_GENES,
-            &format!(
+            format_args!(
                 "times ga.genome_length must be at most {MAX_GENES} genes a generation \
                  (got {} × {} = {genes}); a run keeps about {BYTES_PER_GENE} bytes a \
                  gene, so this one would need about {} MB",
@@ -114,7 +114,7 @@ impl GaParams {
         check(
             "ga.elites",
             self.elites <= self.population,
-            &format!(
+            format_args!(
                 "must not exceed ga.population ({} > {})",
                 self.elites, self.population
             ),

@@ -121,6 +121,45 @@ pub struct LearnState {
     pub weights: Vec<(u32, f64)>,
 }
 
+impl LearnState {
+    /// Whether a trial of `learn` can stand here: no more episodes flown
+    /// than it has, at most 100 recent ones, its first landing among those
+    /// flown, and every weight one of its agent's, finite. A state read
+    /// from a checkpoint or a worker's answer passes this before it is
+    /// trusted.
+    pub fn check(&self, learn: &LearnParams) -> Result<(), String> {
+        if self.episodes > learn.episodes {
+            return Err(format!(
+                "{} episodes flown of a trial of {}",
+                self.episodes, learn.episodes
+            ));
+        }
+        if self.recent.len() > 100 || self.recent.len() > self.episodes as usize {
+            return Err(format!(
+                "{} recent episodes after {} flown",
+                self.recent.len(),
+                self.episodes
+            ));
+        }
+        if self.first_safe.is_some_and(|e| e == 0 || e > self.episodes) {
+            return Err(format!(
+                "a first landing in episode {:?} of {}",
+                self.first_safe, self.episodes
+            ));
+        }
+        let weights = 1u64.checked_shl(learn.memory_bits).unwrap_or(u64::MAX);
+        for &(i, w) in &self.weights {
+            if u64::from(i) >= weights {
+                return Err(format!("weight {i} is past the agent's {weights} weights"));
+            }
+            if !w.is_finite() {
+                return Err(format!("weight {i} is {w}"));
+            }
+        }
+        Ok(())
+    }
+}
+
 impl LearnRun {
     /// A fresh agent for `learn.episodes` episodes of `env`, its draws
     /// keyed by `key`.
@@ -152,29 +191,8 @@ impl LearnRun {
         key: StreamKey,
         state: &LearnState,
     ) -> Result<LearnRun, String> {
+        state.check(learn)?;
         let mut run = LearnRun::new(env, guide, learn, key);
-        if state.episodes > learn.episodes {
-            return Err(format!(
-                "{} episodes flown of a trial of {}",
-                state.episodes, learn.episodes
-            ));
-        }
-        if state.recent.len() > 100 || state.recent.len() > state.episodes as usize {
-            return Err(format!(
-                "{} recent episodes after {} flown",
-                state.recent.len(),
-                state.episodes
-            ));
-        }
-        if state
-            .first_safe
-            .is_some_and(|e| e == 0 || e > state.episodes)
-        {
-            return Err(format!(
-                "a first landing in episode {:?} of {}",
-                state.first_safe, state.episodes
-            ));
-        }
         run.agent.set_weights(&state.weights)?;
         run.rng.set_word_pos(state.rng_word);
         run.flown = state.episodes;

@@ -104,7 +104,8 @@ pub struct TrainResult {
 impl TrainResult {
     /// True when the records are a possible answer to `job`: its leg's
     /// episodes numbered in order, finite, agreeing with the summary, and
-    /// with the trial's state after a leg short of its end.
+    /// with the trial's state after a leg short of its end, one the next
+    /// leg can start from (`LearnState::check`).
     pub fn is_plausible(&self, job: &TrainJob) -> bool {
         let (start, first_before) = job
             .from
@@ -128,6 +129,7 @@ impl TrainResult {
                 until < job.learn.episodes
                     && s.episodes == until
                     && s.first_safe == self.training.first_safe
+                    && s.check(&job.learn).is_ok()
             }
         };
         start <= until

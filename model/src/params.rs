@@ -104,7 +104,7 @@ impl World {
         check(
             "world.height",
             w.height > least,
-            &format!(
+            format_args!(
                 "must be more than {least:?}, so that the lander, starting world.start_drop \
                  below the top, is above world.ground_y (got {:?})",
                 w.height
@@ -129,7 +129,7 @@ impl World {
             check(
                 field,
                 per_tick.abs() <= w.height,
-                &format!(
+                format_args!(
                     "gives a velocity change per tick ({formula} = {per_tick:?}) beyond \
                      world.height ({:?})",
                     w.height
@@ -248,7 +248,7 @@ impl GuideParams {
         check(
             "guided.w_y",
             g.w_y >= 1e-12,
-            &format!("must be at least 1e-12 (got {:?})", g.w_y),
+            format_args!("must be at least 1e-12 (got {:?})", g.w_y),
         )?;
         finite("guided.h1", g.h1)?;
         within("guided.r", g.r, 1e12)?;

@@ -16,6 +16,7 @@
 
 use iceoryx2::prelude::ZeroCopySend;
 use lander_model::learn::LearnState;
+use lander_model::stream::streams;
 use lander_model::{
     evaluate, Action, Env, Evaluation, Gene, GuideParams, LearnParams, Pass, StreamKey, TrainJob,
     TrainResult,
@@ -173,6 +174,10 @@ pub enum WireError {
     Until { until: u32, episodes: u32 },
     #[error("training parameters out of range: {0}")]
     Learning(lander_model::check::ParamError),
+    #[error("job parameters out of range: {0}")]
+    Params(lander_model::check::ParamError),
+    #[error("genomes {first} to {first} + {genomes} are past the last a generation may number")]
+    Index { first: u64, genomes: u32 },
     #[error("training result is not a possible leg to episode {0}")]
     ImplausibleTraining(u32),
 }
@@ -204,6 +209,11 @@ impl Job {
             return Err(WireError::Version { got: h.version });
         }
         check_numbers(h)?;
+        // The same checks as a run configuration's: they bound a flight's
+        // ticks and keep fitness and R finite, whoever sent the job.
+        h.env.world.check().map_err(WireError::Params)?;
+        h.env.scoring.check().map_err(WireError::Params)?;
+        h.guide.check().map_err(WireError::Params)?;
         match h.kind {
             KIND_EVALUATE => EvalJob::from_wire(h, genes).map(Job::Evaluate),
             KIND_TRAIN => train_from_wire(h, genes).map(Job::Train),
@@ -298,6 +308,16 @@ impl EvalJob {
 
     pub fn from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<EvalJob, WireError> {
         let pass = Pass::from_code(h.pass).ok_or(WireError::Pass(h.pass))?;
+        // Genome i flies the guided stream `guide(i)`, i + 1: the last
+        // one's, `end`, may not run into the streams kept for a trial's
+        // start, pads and learning.
+        let end = h.first_index.checked_add(u64::from(h.genomes));
+        if end.is_none_or(|end| end >= streams::LEARN) {
+            return Err(WireError::Index {
+                first: h.first_index,
+                genomes: h.genomes,
+            });
+        }
         let expected = h.genomes as usize * h.genome_length as usize;
         if genes.len() != expected || h.genome_length == 0 {
             return Err(WireError::Length {

@@ -186,6 +186,22 @@ fn a_small_experiment_writes_every_file_and_they_agree() {
     assert!(replayed.status.success(), "{}", stderr(&replayed));
     assert!(fs::read_to_string(&svg).unwrap().contains("<svg"));
 
+    // An experiment.json out of an experiment's ranges is refused, named,
+    // before any flight: this world would fly 4 × 10^9 ticks a lander.
+    let definition = out.join("experiment.json");
+    let kept = fs::read_to_string(&definition).unwrap();
+    let mut exp: Value = serde_json::from_str(&kept).unwrap();
+    exp["world"]["max_ticks"] = u32::MAX.into();
+    fs::write(&definition, exp.to_string()).unwrap();
+    let refused = replay();
+    assert!(!refused.status.success());
+    let said = stderr(&refused);
+    assert!(
+        said.contains("experiment.json") && said.contains("world.max_ticks"),
+        "{said}"
+    );
+    fs::write(&definition, kept).unwrap();
+
     // Without experiment.json, the folder is not taken for a run's.
     fs::remove_file(out.join("experiment.json")).unwrap();
     let refused = replay();

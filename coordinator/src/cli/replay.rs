@@ -140,6 +140,10 @@ fn from_folder(dir: &Path, args: &ReplayArgs) -> anyhow::Result<Recording> {
             .with_context(|| format!("reading {}", definition.display()))?;
         let exp: Experiment = serde_json::from_str(&text)
             .with_context(|| format!("{} is not an experiment", definition.display()))?;
+        // Checked as the experiment checked it: its world bounds the
+        // flight replayed.
+        exp.validate()
+            .with_context(|| format!("{}", definition.display()))?;
         let records = Store::read_only(dir).finished()?;
         return best_landing(&exp, &ordered(&exp, records))
             .with_context(|| format!("{} has no GA trial to replay", dir.display()));

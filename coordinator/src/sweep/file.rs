@@ -14,6 +14,11 @@ use toml::{Table, Value};
 /// The most settings a sweep may hold unless the caller allows more.
 pub const MAX_SETTINGS: usize = 10_000;
 
+/// The most settings any sweep may hold, allowed more or not: each is an
+/// experiment's configuration in memory and a folder of its own, so a
+/// million take gigabytes and as many folders.
+pub const MAX_LARGE_SETTINGS: usize = 1_000_000;
+
 /// The sections of the run configuration a setting may change.
 const SECTIONS: [&str; 5] = ["world", "scoring", "guided", "ga", "qlearning"];
 
@@ -152,6 +157,11 @@ impl Sweep {
         if count > MAX_SETTINGS && !allow_large {
             return Err(format!(
                 "the sweep has {count} settings, more than {MAX_SETTINGS}; pass --allow-large to run it anyway"
+            ));
+        }
+        if count > MAX_LARGE_SETTINGS {
+            return Err(format!(
+                "the sweep has {count} settings, more than the {MAX_LARGE_SETTINGS} any sweep may have"
             ));
         }
         let full = Value::try_from(&base).map_err(|e| e.to_string())?;

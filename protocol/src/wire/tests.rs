@@ -259,6 +259,54 @@ fn training_results_are_checked() {
         weights: Vec::new(),
     });
     assert!(decode_training(&encode(&with_state), &leg).is_ok());
+    // A state the next leg could not start from is refused here, before
+    // it reaches a checkpoint or another worker.
+    let weights = 1u32 << LearnParams::default().memory_bits;
+    for weight in [(weights, 1.0), (3, f64::INFINITY)] {
+        let mut poisoned = with_state.clone();
+        if let Some(state) = &mut poisoned.state {
+            state.weights.push(weight);
+        }
+        assert_eq!(
+            decode_training(&encode(&poisoned), &leg),
+            Err(WireError::ImplausibleTraining(2)),
+            "{weight:?}"
+        );
+    }
+}
+
+#[test]
+fn jobs_out_of_a_runs_ranges_are_refused() {
+    let genes = [gene(0, 1), gene(1, 1)];
+    // A world that flies for 2^32 ticks a genome, and scoring weights
+    // that overflow R: refused as a run's configuration would be.
+    let mut h = header(1, 2);
+    h.env.world.max_ticks = u32::MAX;
+    let err = Job::from_wire(&h, &genes).unwrap_err();
+    assert!(matches!(err, WireError::Params(_)), "{err}");
+    assert!(err.to_string().contains("world.max_ticks"), "{err}");
+    let mut h = header(1, 2);
+    h.env.scoring.w1 = 1e300;
+    let err = Job::from_wire(&h, &genes).unwrap_err();
+    assert!(err.to_string().contains("scoring.w1"), "{err}");
+    let mut h = header(1, 2);
+    h.guide.epsilon = 2.0;
+    let err = Job::from_wire(&h, &genes).unwrap_err();
+    assert!(err.to_string().contains("guided.epsilon"), "{err}");
+    // Genome indices that would draw from the trial's start, pads or
+    // learning stream, or overflow.
+    for first in [streams::LEARN - 1, u64::MAX] {
+        let mut h = header(1, 2);
+        h.first_index = first;
+        assert_eq!(
+            Job::from_wire(&h, &genes),
+            Err(WireError::Index { first, genomes: 1 })
+        );
+    }
+    // The last index whose stream is a guided pass's.
+    let mut h = header(1, 2);
+    h.first_index = streams::LEARN - 2;
+    assert!(Job::from_wire(&h, &genes).is_ok());
 }
 
 use proptest::prelude::*;

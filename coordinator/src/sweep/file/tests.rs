@@ -278,6 +278,39 @@ fn more_than_ten_thousand_settings_need_a_flag() {
 }
 
 #[test]
+fn no_flag_allows_a_grid_past_a_million_settings() {
+    let hundred = (1..=100)
+        .map(|v| v.to_string())
+        .collect::<Vec<_>>()
+        .join(", ");
+    let keys = [
+        "ga.max_generations",
+        "ga.max_restarts",
+        "ga.population",
+        "ga.genome_length",
+        "guided.w_y",
+        "guided.h1",
+        "guided.h2",
+        "guided.w_t",
+        "scoring.w1",
+        "scoring.w2",
+    ];
+    // 100^6 settings, and 100^10, more than a usize counts.
+    for n in [6, 10] {
+        let grid: String = keys[..n]
+            .iter()
+            .map(|k| format!("\"{k}\" = [{hundred}]\n"))
+            .collect();
+        let text = format!("{BASE}[grids.g]\n{grid}");
+        let err = Sweep::parse(&text, true).expect_err("a grid too large for any flag");
+        assert!(
+            err.contains("more than the 1000000 any sweep may have"),
+            "{n} keys: {err}"
+        );
+    }
+}
+
+#[test]
 fn the_shipped_fidelity_study_loads() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments/fidelity.toml");
     let sweep = Sweep::load(&path, false).expect("fidelity.toml loads");
