@@ -38,6 +38,7 @@ fn worker_pool() -> IpcPool {
         spin: std::time::Duration::ZERO,
         verify: 0.0,
         share: false,
+        stand_in: false,
         stop: Default::default(),
     };
     let mut pool = IpcPool::start(opts, Default::default()).expect("pool starts");

@@ -232,17 +232,20 @@ fn spawned_workers_spin_only_with_a_cpu_to_spare() {
 }
 
 /// `--coordinator-share always` has the coordinator fly chunks itself,
-/// `never` leaves every chunk to the workers: read from its metrics.
+/// `never` leaves every chunk to the workers: read from its metrics. With
+/// a worker on every CPU, `auto` has it fly a single trial's share of the
+/// worker on its own CPU.
 #[test]
 fn the_coordinator_flies_a_share_only_where_told() {
     let _one_at_a_time = serial();
     let iox = Iox::new("share");
-    let flown_here = |share: &str| -> (f64, f64) {
+    let flown_here = |workers: usize, share: &str| -> (f64, f64) {
         let dir = tempfile::tempdir().unwrap();
         let cfg = never_lands(dir.path());
         let addr = format!("127.0.0.1:{}", free_port());
+        let workers = workers.to_string();
         let mut args = LONG.to_vec();
-        args.extend(["--config", &cfg, "--workers", "1"]);
+        args.extend(["--config", &cfg, "--workers", &workers]);
         args.extend(["--coordinator-share", share, "--metrics", &addr]);
         let child = start(&iox, dir.path(), &args);
         let counter = |name: &str| -> f64 {
@@ -264,10 +267,23 @@ fn the_coordinator_flies_a_share_only_where_told() {
         interrupt(child);
         counts
     };
-    let (here, sent) = flown_here("always");
+    let (here, sent) = flown_here(1, "always");
     assert!(here > 0.0 && sent > 0.0, "always: {here} here, {sent} sent");
-    let (here, sent) = flown_here("never");
+    let (here, sent) = flown_here(1, "never");
     assert!(here == 0.0 && sent > 0.0, "never: {here} here, {sent} sent");
+    let cpus = lander_protocol::host::allowed_cpus().len();
+    if cpus > 1 {
+        let (here, sent) = flown_here(cpus, "auto");
+        assert!(
+            here > 0.0 && sent > 0.0,
+            "auto, {cpus} workers: {here} here, {sent} sent"
+        );
+        let (here, sent) = flown_here(cpus, "never");
+        assert!(
+            here == 0.0 && sent > 0.0,
+            "never, {cpus} workers: {here} here, {sent} sent"
+        );
+    }
 }
 
 /// Runs LONG over two spawned workers, doing `disturb` to them once 40

@@ -65,6 +65,7 @@ fn an_idle_worker_takes_a_stopped_workers_queued_chunks_and_nothing_is_lost() {
         spin: std::time::Duration::ZERO,
         verify: 0.0,
         share: false,
+        stand_in: false,
         stop: Default::default(),
     };
     let mut pool = IpcPool::start(opts, telemetry).unwrap();

@@ -145,6 +145,7 @@ fn pool_options_for(
     );
     opts.verify = args.verify;
     opts.share = args.coordinator_share.applies(workers);
+    opts.stand_in = args.coordinator_share.stands_in();
     Ok(opts)
 }
 

@@ -101,6 +101,7 @@ pub fn stress(args: &StressArgs, work: &Workload, stop_asked: &Stop) -> anyhow::
     opts.max_respawns = usize::MAX;
     // Every chunk goes through the workers being killed.
     opts.share = false;
+    opts.stand_in = false;
     let mut pool = IpcPool::start(opts, args.telemetry.clone())?;
     pool.wait_for_workers(args.workers, Duration::from_secs(20))
         .context("waiting for the workers")?;

@@ -25,7 +25,9 @@ pub enum TransportArg {
 }
 
 /// Whether the coordinator flies a share of each generation itself,
-/// between answers, rather than sleeping while its workers fly.
+/// between answers, rather than sleeping while its workers fly. Unless
+/// `Never`, it also flies a single trial's share of the worker on its own
+/// CPU (`PoolOptions::stand_in`).
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CoordinatorShare {
     /// Where spawned workers leave a CPU idle: fewer of them than CPUs.
@@ -46,6 +48,12 @@ impl CoordinatorShare {
                 spawned > 0 && cpu_to_spare(spawned, lander_protocol::host::allowed_cpus().len())
             }
         }
+    }
+
+    /// Whether the coordinator flies a single trial's share of the worker
+    /// on its CPU (`PoolOptions::stand_in`): unless it never flies.
+    pub fn stands_in(self) -> bool {
+        self != CoordinatorShare::Never
     }
 }
 
@@ -110,7 +118,8 @@ pub struct TransportArgs {
     verify: Option<f64>,
     /// Whether the coordinator flies queued chunks itself between answers
     /// instead of sleeping [default: auto: where the spawned workers leave
-    /// a CPU idle].
+    /// a CPU idle, and a single trial's share of the worker on the
+    /// coordinator's CPU; never: not even that].
     #[arg(long, value_enum, value_name = "WHEN")]
     coordinator_share: Option<CoordinatorShare>,
     #[command(flatten)]
@@ -221,10 +230,9 @@ impl TransportArgs {
         let deadline = Duration::from_secs_f64(self.deadline);
         let mut opts = pool_options(run_id, self.workers, deadline, !self.no_pin, stop)?;
         opts.spin = Duration::from_micros(self.spin_us);
-        opts.share = self
-            .coordinator_share
-            .unwrap_or(CoordinatorShare::Auto)
-            .applies(self.workers);
+        let share = self.coordinator_share.unwrap_or(CoordinatorShare::Auto);
+        opts.share = share.applies(self.workers);
+        opts.stand_in = share.stands_in();
         opts.verify = match (self.verify, self.transport) {
             (Some(rate), _) => rate,
             (None, TransportArg::Zenoh) => DEFAULT_VERIFY_ZENOH,
@@ -302,6 +310,7 @@ pub fn pool_options(
         spin: DEFAULT_SPIN,
         verify: 0.0,
         share: CoordinatorShare::Auto.applies(workers),
+        stand_in: CoordinatorShare::Auto.stands_in(),
         stop: stop.clone(),
     })
 }

@@ -343,7 +343,10 @@ impl<T: Transport> Pool<T> {
             return;
         }
         for idle in 0..self.links.len() {
-            if self.links[idle].in_flight() > 0 || !self.links[idle].has_room() {
+            if self.links[idle].in_flight() > 0
+                || !self.links[idle].has_room()
+                || self.stands_in_for(idle)
+            {
                 continue;
             }
             let Some(chunk) = self.take_back_from_backlog() else {
@@ -392,7 +395,8 @@ impl<T: Transport> Pool<T> {
         // Without a worker yet the chunks wait for workers, not for room:
         // a run's one Q(λ) trial goes to its worker, not to the
         // coordinator that started before it.
-        if !self.opts.share || !check.shares || self.links.is_empty() {
+        let share = self.opts.share || (0..self.links.len()).any(|i| self.stands_in_for(i));
+        if !share || !check.shares || self.links.is_empty() {
             return false;
         }
         let n = chunks.len();
@@ -432,12 +436,26 @@ impl<T: Transport> Pool<T> {
                 // The workers fly it, and every chunk from now on.
                 tracing::warn!("the coordinator cannot fly chunk {chunk} itself: {e}");
                 self.opts.share = false;
+                self.opts.stand_in = false;
+                self.stands_in = false;
                 if !queued {
                     progress.again(chunk);
                 }
                 false
             }
         }
+    }
+
+    /// Whether the coordinator flies, in place of link `i`, the chunks
+    /// that would go to it: `i` is the worker on the coordinator's CPU, in
+    /// a step of a single trial's generation (`Pool::stands_in`), and
+    /// another worker is there to fly the rest. The coordinator flies
+    /// between answers as with a share of its own, with no chunk to hand
+    /// over and no worker to wake on that CPU; the worker sleeps.
+    fn stands_in_for(&self, i: usize) -> bool {
+        self.stands_in
+            && self.links.len() > 1
+            && self.children.beside_coordinator(self.links[i].pid())
     }
 
     /// Hands the last of `chunks`, just cut while the rest of its generation
@@ -486,7 +504,7 @@ impl<T: Transport> Pool<T> {
             pass += 1;
             sent = false;
             for i in 0..self.links.len() {
-                if !self.links[i].has_room() {
+                if !self.links[i].has_room() || self.stands_in_for(i) {
                     continue;
                 }
                 let Some(chunk) = todo.pop_front() else { break };

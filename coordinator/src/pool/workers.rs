@@ -40,6 +40,7 @@ impl<T: Transport> Pool<T> {
         let mut pool = Pool {
             beside: placement.coordinator,
             cpus: allowed.len().max(1),
+            stands_in: false,
             children: Children::new(
                 opts.worker_exe.clone(),
                 opts.run_id.clone(),

@@ -7,6 +7,7 @@ use crate::config::RunConfig;
 use crate::evaluator::{Batch, Evaluator, InProcess};
 use crate::ga::{random_population, Genome};
 use crate::pool::backend::Pace;
+use crate::pool::spawn::{stand_in_worker, Children, Placement};
 use crate::pool::Pool;
 use crate::trial::offspring;
 use lander_model::stream::streams;
@@ -29,8 +30,17 @@ fn parents(cfg: &RunConfig) -> Vec<(Vec<Genome>, Vec<f64>)> {
 
 /// Flies one step of `TRIALS` batches still to be bred on `evaluator`.
 fn step(evaluator: &mut dyn Evaluator) -> (Vec<Vec<Evaluation>>, Vec<Vec<Genome>>) {
+    step_of(evaluator, TRIALS as usize)
+}
+
+/// Flies one step of the first `trials` batches still to be bred.
+fn step_of(
+    evaluator: &mut dyn Evaluator,
+    trials: usize,
+) -> (Vec<Vec<Evaluation>>, Vec<Vec<Genome>>) {
     let cfg = RunConfig::default();
-    let from = parents(&cfg);
+    let mut from = parents(&cfg);
+    from.truncate(trials);
     let mut genomes: Vec<Vec<Genome>> = vec![Vec::new(); from.len()];
     let batches: Vec<Batch<'_>> = (0..)
         .zip(&from)
@@ -100,4 +110,55 @@ fn breeding_as_handed_out_keeps_up_while_one_thread_does_not_hold_the_workers_up
     assert!(!pace(400, 900).keeps_up(4));
     assert!(!pace(400, 900).keeps_up(8));
     assert!(pace(400, 2800).keeps_up(8));
+}
+
+/// A pool over flying links, one per CPU, each with a stand-in process
+/// pinned to its CPU behind it: the last shares its CPU with the
+/// coordinator's thread.
+fn on_every_cpu(dir: &std::path::Path) -> Pool<Nowhere> {
+    let allowed = lander_protocol::host::allowed_cpus();
+    let placement = Placement::new(allowed.len(), &allowed, true, Duration::ZERO);
+    let mut children = Children::new(stand_in_worker(dir), "t".into(), Vec::new(), 0, placement);
+    let links = (0..allowed.len())
+        .map(|i| Recorder {
+            pid: children.spawn().unwrap(),
+            flies: true,
+            ..Recorder::holding(i as u64, Vec::new())
+        })
+        .collect();
+    let mut pool = super::fake::pool(links, Default::default());
+    pool.children = children;
+    // As `lander run` cuts a generation: more chunks than the workers'
+    // queues hold while it is bred.
+    pool.opts.chunks_per_worker = crate::pool::DEPTH;
+    pool.opts.stand_in = true;
+    pool
+}
+
+#[test]
+fn the_coordinator_flies_a_single_trial_in_place_of_the_worker_on_its_cpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut pool = on_every_cpu(dir.path());
+    let others = pool.links.len() - 1;
+    // One trial's generation: the worker beside the coordinator gets
+    // nothing, the coordinator flies what it would have, and the results
+    // are in-process's.
+    let single = step_of(&mut pool, 1);
+    assert!(single == step_of(&mut InProcess::new(2).unwrap(), 1));
+    let beside = pool.links.last().unwrap().sent.len();
+    if others > 0 {
+        assert_eq!(beside, 0, "the coordinator's neighbour was sent chunks");
+        assert!(pool.flown_here() > 0, "the coordinator flew nothing");
+    } else {
+        // Alone, that worker flies everything.
+        assert!(beside > 0);
+    }
+    // Several trials' generations: every worker flies its share.
+    let several = step(&mut pool);
+    assert!(several == step(&mut InProcess::new(2).unwrap()));
+    assert!(
+        pool.links.iter().all(|l| !l.sent.is_empty()),
+        "a worker sent nothing"
+    );
+    assert_eq!(pool.children.stop_all(&[]), 0);
 }

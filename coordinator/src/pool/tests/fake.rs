@@ -168,6 +168,7 @@ pub fn options() -> PoolOptions {
         spin: Duration::ZERO,
         verify: 0.0,
         share: false,
+        stand_in: false,
         stop: Stop::new(),
     }
 }
