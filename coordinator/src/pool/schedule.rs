@@ -5,6 +5,7 @@
 //! (`Pool::rebalance`), and only then decoding.
 
 use super::progress::{subject, Progress};
+use super::spawn::ChildId;
 use super::verify::{Check, Outcome, Verdict};
 use super::{Answer, Pool, Transport, WorkerLink};
 use crate::evaluator::EvalError;
@@ -455,7 +456,9 @@ impl<T: Transport> Pool<T> {
     fn stands_in_for(&self, i: usize) -> bool {
         self.stands_in
             && self.links.len() > 1
-            && self.children.beside_coordinator(self.links[i].pid())
+            && self
+                .children
+                .beside_coordinator(ChildId::of(&self.links[i]))
     }
 
     /// Hands the last of `chunks`, just cut while the rest of its generation
@@ -470,7 +473,10 @@ impl<T: Transport> Pool<T> {
         };
         let links = self.links.len();
         let Some(i) = (0..links).map(|k| (early.next + k) % links).find(|&i| {
-            self.links[i].has_room() && !self.children.beside_coordinator(self.links[i].pid())
+            self.links[i].has_room()
+                && !self
+                    .children
+                    .beside_coordinator(ChildId::of(&self.links[i]))
         }) else {
             return;
         };

@@ -89,11 +89,36 @@ struct Spawned {
     started: Instant,
 }
 
-/// A worker started here that exited, reaped.
-pub struct Exited {
-    pub pid: u32,
-    /// The id it was given, which it announces when it joins.
+impl Spawned {
+    fn child_id(&self) -> ChildId {
+        ChildId {
+            id: self.id,
+            pid: self.child.id(),
+        }
+    }
+
+    fn is(&self, worker: ChildId) -> bool {
+        self.child_id() == worker
+    }
+}
+
+/// A worker started here: the id it was given, which it announces when
+/// it joins, and its pid. Both name it: a worker of another host may have
+/// the same pid, and one started by hand the same id.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ChildId {
     pub id: u64,
+    pub pid: u32,
+}
+
+impl ChildId {
+    /// What names the worker behind `link`, if it is one started here.
+    pub fn of(link: &impl super::WorkerLink) -> ChildId {
+        ChildId {
+            id: link.id(),
+            pid: link.pid(),
+        }
+    }
 }
 
 impl Children {
@@ -123,25 +148,24 @@ impl Children {
         self.procs.is_empty()
     }
 
-    /// True if `pid` is a live worker started here.
-    pub fn started(&self, pid: u32) -> bool {
-        self.procs.iter().any(|p| p.child.id() == pid)
+    /// True if `worker` is a live worker started here.
+    pub fn started(&self, worker: ChildId) -> bool {
+        self.procs.iter().any(|p| p.is(worker))
     }
 
-    /// True if `pid` is a live worker started here on the CPU that the
+    /// True if `worker` is a live worker started here on the CPU that the
     /// coordinator's thread shares with it ([`Placement::coordinator`]).
-    pub fn beside_coordinator(&self, pid: u32) -> bool {
+    pub fn beside_coordinator(&self, worker: ChildId) -> bool {
         let Some(cpu) = self.placement.coordinator else {
             return false;
         };
         self.procs
             .iter()
-            .any(|p| p.child.id() == pid && p.cpu == Some(cpu))
+            .any(|p| p.is(worker) && p.cpu == Some(cpu))
     }
 
-    /// Starts one more worker, on the next free CPU if any, and returns
-    /// its pid.
-    pub fn spawn(&mut self) -> Result<u32, EvalError> {
+    /// Starts one more worker, on the next free CPU if any.
+    pub fn spawn(&mut self) -> Result<ChildId, EvalError> {
         let cpu = self.free_cpus.pop();
         let mut command = Command::new(&self.exe);
         command.args([
@@ -170,7 +194,10 @@ impl Children {
                     reason: e.to_string(),
                 }
             })?;
-        let pid = child.id();
+        let started = ChildId {
+            id: self.next_id,
+            pid: child.id(),
+        };
         self.procs.push(Spawned {
             child,
             id: self.next_id,
@@ -178,12 +205,12 @@ impl Children {
             started: Instant::now(),
         });
         self.next_id += 1;
-        Ok(pid)
+        Ok(started)
     }
 
     /// Replaces a worker that died, while the respawn budget lasts.
-    /// Returns the new worker's pid, or `None` once the budget is spent.
-    pub fn respawn(&mut self) -> Result<Option<u32>, EvalError> {
+    /// Returns the new worker, or `None` once the budget is spent.
+    pub fn respawn(&mut self) -> Result<Option<ChildId>, EvalError> {
         if self.respawns_left == 0 {
             return Ok(None);
         }
@@ -192,14 +219,14 @@ impl Children {
     }
 
     /// Reaps the workers that exited and returns them.
-    pub fn exited(&mut self) -> Vec<Exited> {
+    pub fn exited(&mut self) -> Vec<ChildId> {
         let mut gone = Vec::new();
         self.procs.retain_mut(|p| match p.child.try_wait() {
             Ok(None) => true,
             Ok(Some(_)) | Err(_) => {
-                gone.push(Exited {
-                    pid: p.child.id(),
+                gone.push(ChildId {
                     id: p.id,
+                    pid: p.child.id(),
                 });
                 self.free_cpus.extend(p.cpu);
                 false
@@ -226,22 +253,23 @@ impl Children {
         }
     }
 
-    /// The workers started more than `within` ago whose pid `joined`
-    /// does not know, each as `(pid, id)`: started, but never heard from.
+    /// The workers started more than `within` ago that `joined` does not
+    /// know: started, but never heard from.
     pub fn not_joined<'a>(
         &'a self,
-        joined: impl Fn(u32) -> bool + 'a,
+        joined: impl Fn(ChildId) -> bool + 'a,
         within: Duration,
-    ) -> impl Iterator<Item = (u32, u64)> + 'a {
+    ) -> impl Iterator<Item = ChildId> + 'a {
         self.procs
             .iter()
-            .filter(move |p| !joined(p.child.id()) && p.started.elapsed() > within)
-            .map(|p| (p.child.id(), p.id))
+            .map(|p| (p.child_id(), p.started))
+            .filter(move |&(c, started)| !joined(c) && started.elapsed() > within)
+            .map(|(c, _)| c)
     }
 
-    /// Kills a hung worker; the next `exited` reaps it.
-    pub fn kill(&mut self, pid: u32) {
-        if let Some(p) = self.procs.iter_mut().find(|p| p.child.id() == pid) {
+    /// Kills a hung worker started here; the next `exited` reaps it.
+    pub fn kill(&mut self, worker: ChildId) {
+        if let Some(p) = self.procs.iter_mut().find(|p| p.is(worker)) {
             let _ = p.child.kill();
         }
     }
@@ -255,12 +283,12 @@ impl Children {
 
     /// Waits for every worker to leave after being told the run is over,
     /// killing those that do not within a few seconds; returns how many it
-    /// killed. A worker whose pid is not in `told` never joined (a short
+    /// killed. A worker not in `told` never joined (a short
     /// run can end before a slow worker announces itself), so nothing told
     /// it the run is over: it gets SIGTERM at once rather than the wait.
-    pub fn stop_all(&mut self, told: &[u32]) -> usize {
+    pub fn stop_all(&mut self, told: &[ChildId]) -> usize {
         for p in &self.procs {
-            if !told.contains(&p.child.id()) {
+            if !told.contains(&p.child_id()) {
                 terminate(p.child.id());
             }
         }
@@ -403,5 +431,38 @@ mod tests {
         children.spawn().unwrap();
         assert_eq!(children.stop_all(&[]), 0, "a worker had to be killed");
         assert!(children.is_empty());
+    }
+
+    #[test]
+    fn a_worker_of_another_host_with_a_childs_pid_is_not_taken_for_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let exe = stand_in_worker(dir.path());
+        let allowed = lander_protocol::host::allowed_cpus();
+        let placement = Placement::new(1, &allowed[..1], true, Duration::ZERO);
+        let mut children = Children::new(exe, "r".into(), Vec::new(), 0, placement);
+        let child = children.spawn().unwrap();
+        // The same pid under another id: a worker elsewhere, or one started
+        // by hand.
+        let stranger = ChildId {
+            id: child.id + 0x5eed,
+            ..child
+        };
+        assert!(children.started(child) && !children.started(stranger));
+        assert!(children.beside_coordinator(child));
+        assert!(!children.beside_coordinator(stranger));
+        children.kill(stranger);
+        std::thread::sleep(Duration::from_millis(50));
+        assert!(
+            children.exited().is_empty(),
+            "the stranger's kill reached the child"
+        );
+        children.kill(child);
+        assert!(
+            (0..1000).any(|_| {
+                std::thread::sleep(Duration::from_millis(5));
+                children.exited() == [child]
+            }),
+            "the child was not killed"
+        );
     }
 }

@@ -6,7 +6,7 @@
 //! the pool is dropped.
 
 use super::link::overdue;
-use super::spawn::{Children, Placement};
+use super::spawn::{ChildId, Children, Placement};
 use super::{iceoryx, IpcPool, Pool, PoolOptions, Transport, WorkerLink};
 use crate::evaluator::EvalError;
 use lander_protocol::host::Pinned;
@@ -112,7 +112,10 @@ impl<T: Transport> Pool<T> {
                 // One this pool started will never speak another version:
                 // the executables come from different builds, and none of
                 // its workers is of use.
-                if self.children.started(w.pid) {
+                if self.children.started(ChildId {
+                    id: w.id,
+                    pid: w.pid,
+                }) {
                     self.children.kill_all();
                     return Err(EvalError::WorkerVersion {
                         exe: self.opts.worker_exe.display().to_string(),
@@ -170,7 +173,7 @@ impl<T: Transport> Pool<T> {
             // Nothing to drop for a worker dropped already, which the pool
             // killed, or one that died before it joined; such a one is
             // told by the id it was given.
-            let joined = self.drop_links(todo, |l| l.pid() == pid, Cause::Exited);
+            let joined = self.drop_links(todo, |l| ChildId::of(l) == gone, Cause::Exited);
             if !joined && !self.dropped.contains(&gone.id) {
                 self.telemetry.event(Event::WorkerDied {
                     worker: spawned(gone.id, pid),
@@ -178,7 +181,9 @@ impl<T: Transport> Pool<T> {
                 });
             }
             match self.children.respawn()? {
-                Some(pid) => self.telemetry.event(Event::WorkerRespawned { pid }),
+                Some(new) => self
+                    .telemetry
+                    .event(Event::WorkerRespawned { pid: new.pid }),
                 None => tracing::warn!("worker process {pid} exited; no respawns left"),
             }
         }
@@ -197,15 +202,16 @@ impl<T: Transport> Pool<T> {
     fn stop_workers_never_joined(&mut self) {
         // Looked at every pass: nothing is allocated unless one is late.
         let links = &self.links;
-        let late: Vec<(u32, u64)> = self
+        let late: Vec<ChildId> = self
             .children
             .not_joined(
-                |pid| links.iter().any(|l| l.pid() == pid),
+                |c| links.iter().any(|l| ChildId::of(l) == c),
                 self.opts.deadline,
             )
-            .filter(|(_, id)| !self.dropped.contains(id))
+            .filter(|c| !self.dropped.contains(&c.id))
             .collect();
-        for (pid, id) in late {
+        for late in late {
+            let ChildId { id, pid } = late;
             self.dropped.insert(id);
             tracing::warn!(
                 "worker process {pid} has not joined within {} s of its start; stopping it",
@@ -214,7 +220,7 @@ impl<T: Transport> Pool<T> {
             self.telemetry.event(Event::WorkerTimedOut {
                 worker: spawned(id, pid),
             });
-            self.children.kill(pid);
+            self.children.kill(late);
         }
     }
 
@@ -242,7 +248,7 @@ impl<T: Transport> Pool<T> {
             false
         });
         for &(id, pid, requeued) in &dropped {
-            self.children.kill(pid);
+            self.children.kill(ChildId { id, pid });
             self.dropped.insert(id);
             let worker = self.worker_ref(id, pid);
             let lost = match why {
@@ -343,7 +349,7 @@ impl<T: Transport> Drop for Pool<T> {
             link.shut_down();
         }
         self.await_leaving(self.transport.farewell());
-        let told: Vec<u32> = self.links.iter().map(WorkerLink::pid).collect();
+        let told: Vec<ChildId> = self.links.iter().map(ChildId::of).collect();
         let stuck = self.children.stop_all(&told);
         if stuck > 0 {
             tracing::warn!("killed {stuck} worker(s) that did not leave when the run ended");

@@ -120,10 +120,13 @@ fn on_every_cpu(dir: &std::path::Path) -> Pool<Nowhere> {
     let placement = Placement::new(allowed.len(), &allowed, true, Duration::ZERO);
     let mut children = Children::new(stand_in_worker(dir), "t".into(), Vec::new(), 0, placement);
     let links = (0..allowed.len())
-        .map(|i| Recorder {
-            pid: children.spawn().unwrap(),
-            flies: true,
-            ..Recorder::holding(i as u64, Vec::new())
+        .map(|_| {
+            let child = children.spawn().unwrap();
+            Recorder {
+                pid: child.pid,
+                flies: true,
+                ..Recorder::holding(child.id, Vec::new())
+            }
         })
         .collect();
     let mut pool = super::fake::pool(links, Default::default());

@@ -105,9 +105,12 @@ fn chunks_bred_one_by_one_skip_the_worker_beside_the_coordinator() {
     let placement = Placement::new(allowed.len(), &allowed, true, Duration::ZERO);
     let mut children = Children::new(exe, "t".into(), Vec::new(), 0, placement);
     let links = (0..allowed.len())
-        .map(|i| Recorder {
-            pid: children.spawn().unwrap(),
-            ..Recorder::holding(i as u64, Vec::new())
+        .map(|_| {
+            let child = children.spawn().unwrap();
+            Recorder {
+                pid: child.pid,
+                ..Recorder::holding(child.id, Vec::new())
+            }
         })
         .collect();
     let mut pool = super::fake::pool(links, Default::default());
