@@ -131,6 +131,21 @@ pub struct ChunkResult {
     pub actions: Vec<u8>,
 }
 
+/// The most bytes a chunk's job or answer may take: a quarter of a
+/// network frame ([`crate::envelope::MAX_FRAME`]), which no chunk a pool
+/// cuts may outgrow, however few workers share a large generation.
+pub const MAX_CHUNK_BYTES: usize = crate::envelope::MAX_FRAME / 4;
+
+/// More than one genome's evaluation takes on the wire.
+const EVALUATION_BYTES: usize = 160;
+
+/// The most genomes of `length` genes one chunk may carry: its job takes
+/// two bytes a gene, its answer a byte a gene (the guided pass's actions)
+/// and an evaluation a genome.
+pub fn most_genomes_per_chunk(length: usize) -> usize {
+    (MAX_CHUNK_BYTES / (2 * length + EVALUATION_BYTES)).max(1)
+}
+
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 pub enum WireError {
     #[error("{0} is not a finite number")]

@@ -12,8 +12,8 @@ use lander_model::learn::run_training;
 use lander_model::{Action, Evaluation, TrainJob, TrainResult};
 use lander_protocol::host::thread_cpu_time;
 use lander_protocol::wire::{
-    decode_training, pack_state, ChunkResult, JobHeader, WireGene, KIND_EVALUATE, KIND_TRAIN,
-    PROTOCOL_VERSION,
+    decode_training, most_genomes_per_chunk, pack_state, ChunkResult, JobHeader, WireGene,
+    KIND_EVALUATE, KIND_TRAIN, PROTOCOL_VERSION,
 };
 use rayon::prelude::*;
 use std::ops::Range;
@@ -102,7 +102,7 @@ impl<T: Transport> Evaluator for Pool<T> {
             // while the coordinator breeds the next.
             let unbred = !batch.is_bred();
             let length = batch.bred_up_to(1).first().map_or(0, Vec::len);
-            for range in chunk_ranges(batch.len(), per_batch, workers) {
+            for range in chunk_ranges(batch.len(), parts(batch.len(), length, per_batch), workers) {
                 let genomes = &batch.bred_up_to(range.end)[range.clone()];
                 if genomes.iter().any(|g| g.len() != length) {
                     // Chunks sent already are not waited for.
@@ -214,6 +214,13 @@ impl Pace {
         let others = u32::try_from(workers.saturating_sub(1)).unwrap_or(u32::MAX);
         self.breeding.saturating_mul(others) <= self.flying
     }
+}
+
+/// How many chunks to cut `n` genomes of `length` genes into: about
+/// `per_batch`, more where a chunk would outgrow a network frame. Cut
+/// largest first, the largest chunk holds less than twice an even share.
+pub(super) fn parts(n: usize, length: usize, per_batch: usize) -> usize {
+    per_batch.max(2 * n.div_ceil(most_genomes_per_chunk(length)))
 }
 
 /// The chunk that flies `range` of a batch's genomes.

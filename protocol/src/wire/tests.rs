@@ -338,3 +338,32 @@ proptest! {
         prop_assert_eq!(ChunkResult::decode(&r.encode(), Pass::Guide, 1, 7), Ok(r));
     }
 }
+
+#[test]
+fn the_largest_chunk_and_its_answer_fit_their_bound() {
+    use crate::envelope::{encode_job, encode_result};
+    for length in [1, 50, 1_000] {
+        let n = most_genomes_per_chunk(length);
+        let job = encode_job(
+            &header(n as u32, length as u32),
+            &vec![gene(3, 30); n * length],
+        );
+        // Every evaluation as long as postcard writes one: the widest
+        // varints, and every action sent back.
+        let mut widest = evaluation(-f64::MAX);
+        widest.outcome.ticks = u32::MAX;
+        widest.outcome.n = u32::MAX;
+        widest.simulated_ticks = u64::MAX;
+        let answer = ChunkResult {
+            evaluations: vec![widest; n],
+            actions: vec![3; n * length],
+        };
+        let result = encode_result(&ResultHeader::default(), &answer.encode());
+        for (what, bytes) in [("job", job.len()), ("answer", result.len())] {
+            assert!(
+                bytes <= MAX_CHUNK_BYTES,
+                "{length} genes: a {what} of {bytes} bytes"
+            );
+        }
+    }
+}

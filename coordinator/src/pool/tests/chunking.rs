@@ -1,6 +1,8 @@
 //! `chunk_ranges`: how a generation is cut into chunks, largest first.
 
+use crate::pool::backend::parts;
 use crate::pool::schedule::chunk_ranges;
+use lander_protocol::wire::most_genomes_per_chunk;
 
 #[test]
 fn chunks_cover_everything_once_in_order() {
@@ -28,4 +30,24 @@ fn each_round_of_chunks_is_smaller_than_the_last() {
     // Each worker's share is still even: 20 + 15 + 10 + 5 = 50.
     let one: Vec<usize> = chunk_ranges(100, 4, 1).iter().map(|r| r.len()).collect();
     assert_eq!(one, [40, 30, 20, 10]);
+}
+
+#[test]
+fn no_chunk_outgrows_a_network_frame() {
+    // A generation of 10^8 genes (the most a run may have) in genomes of
+    // one, 50 or 1,000 genes, cut for one worker or eight.
+    for length in [1, 50, 1_000] {
+        let n = 100_000_000 / length;
+        let most = most_genomes_per_chunk(length);
+        for (per_batch, workers) in [(1, 1), (4, 1), (32, 8)] {
+            let chunks = chunk_ranges(n, parts(n, length, per_batch), workers);
+            let largest = chunks.iter().map(|r| r.len()).max().unwrap();
+            assert!(
+                largest <= most,
+                "{length} genes, {per_batch}: {largest} > {most}"
+            );
+        }
+    }
+    // A generation of the paper's is cut as asked.
+    assert_eq!(parts(100, 50, 8), 8);
 }
