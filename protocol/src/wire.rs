@@ -139,6 +139,15 @@ pub const MAX_CHUNK_BYTES: usize = crate::envelope::MAX_FRAME / 4;
 /// More than one genome's evaluation takes on the wire.
 const EVALUATION_BYTES: usize = 160;
 
+/// More than one Q(λ) episode's record takes on the wire (32 bytes at
+/// the most), leaving room for the answer's summary and header.
+const EPISODE_BYTES: usize = 40;
+
+/// The most episodes one training chunk flies: its records stay within
+/// [`MAX_CHUNK_BYTES`]. A longer trial goes out in legs of this many, each
+/// from where the last left the trial.
+pub const MOST_EPISODES_PER_CHUNK: u32 = (MAX_CHUNK_BYTES / EPISODE_BYTES) as u32;
+
 /// The most genomes of `length` genes one chunk may carry: its job takes
 /// two bytes a gene, its answer a byte a gene (the guided pass's actions)
 /// and an evaluation a genome.

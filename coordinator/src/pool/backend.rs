@@ -8,7 +8,7 @@ use super::schedule::{chunk_ranges, Chunk, Early};
 use super::verify::{self, Check};
 use super::{Pool, Transport};
 use crate::evaluator::{Batch, EvalError, Evaluator, Trainer};
-use lander_model::learn::run_training;
+use lander_model::learn::{run_training, LearnState};
 use lander_model::{Action, Evaluation, TrainJob, TrainResult};
 use lander_protocol::host::thread_cpu_time;
 use lander_protocol::wire::{
@@ -20,10 +20,80 @@ use std::ops::Range;
 use std::time::Duration;
 
 impl<T: Transport> Trainer for Pool<T> {
-    /// One chunk per trial or leg, with no deadline: a dead trainer is
-    /// still found by its exit or its node's death. A leg's starting state
-    /// travels in the genes' place (`pack_state`).
+    /// Each trial in legs of at most `episodes_per_chunk` episodes
+    /// (`MOST_EPISODES_PER_CHUNK`), every trial's next leg going out
+    /// together, each from the state the last left: a trial of millions
+    /// of episodes would otherwise answer in a frame no network carries.
+    /// A trial of fewer goes out whole. Legs are the trial bit for bit.
     fn train(
+        &mut self,
+        trials: &[TrainJob],
+        done: &mut dyn FnMut(usize, &TrainResult),
+    ) -> Result<Vec<TrainResult>, EvalError> {
+        let per_chunk = self.episodes_per_chunk.max(1);
+        // Each trial's records so far, and the leg it flies next.
+        let mut so_far: Vec<Option<TrainResult>> = vec![None; trials.len()];
+        let mut next: Vec<Option<TrainJob>> = trials
+            .iter()
+            .map(|t| Some(leg(t, t.from.clone(), per_chunk)))
+            .collect();
+        loop {
+            let open: Vec<usize> = (0..trials.len()).filter(|&i| next[i].is_some()).collect();
+            if open.is_empty() {
+                return Ok(so_far.into_iter().flatten().collect());
+            }
+            let legs: Vec<TrainJob> = open.iter().filter_map(|&i| next[i].take()).collect();
+            let answers = self.train_legs(&legs, &mut |k, r| {
+                let i = open[k];
+                if legs[k].until == trials[i].until {
+                    match &so_far[i] {
+                        None => done(i, r),
+                        Some(before) => done(i, &joined(before.clone(), r.clone())),
+                    }
+                }
+            })?;
+            for ((k, &i), answer) in open.iter().enumerate().zip(answers) {
+                let whole = match so_far[i].take() {
+                    None => answer,
+                    Some(before) => joined(before, answer),
+                };
+                if legs[k].until < trials[i].until {
+                    next[i] = Some(leg(&trials[i], whole.state.clone(), per_chunk));
+                }
+                so_far[i] = Some(whole);
+            }
+        }
+    }
+}
+
+/// The leg of `trial` from `from` (its start, where `None`): at most
+/// `per_chunk` episodes, and none past the trial's own end.
+fn leg(trial: &TrainJob, from: Option<LearnState>, per_chunk: u32) -> TrainJob {
+    let start = from.as_ref().map_or(0, |s| s.episodes);
+    TrainJob {
+        until: trial.until.min(start.saturating_add(per_chunk)),
+        from,
+        ..trial.clone()
+    }
+}
+
+/// A trial's records up to the end of `after`, the leg that followed
+/// `before`: the summary and state are the later leg's, which count every
+/// episode flown so far.
+fn joined(mut before: TrainResult, after: TrainResult) -> TrainResult {
+    before.episodes.extend(after.episodes);
+    TrainResult {
+        training: after.training,
+        episodes: before.episodes,
+        state: after.state,
+    }
+}
+
+impl<T: Transport> Pool<T> {
+    /// One chunk per leg, with no deadline: a dead trainer is still found
+    /// by its exit or its node's death. A leg's starting state travels in
+    /// the genes' place (`pack_state`).
+    fn train_legs(
         &mut self,
         trials: &[TrainJob],
         done: &mut dyn FnMut(usize, &TrainResult),

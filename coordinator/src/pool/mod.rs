@@ -143,6 +143,9 @@ pub struct Pool<T: Transport> {
     /// During the step under way, the coordinator flies the chunks that
     /// would go to the worker beside it (`Pool::stands_in_for`).
     stands_in: bool,
+    /// The most episodes of a Q(λ) trial one chunk flies
+    /// ([`lander_protocol::wire::MOST_EPISODES_PER_CHUNK`]; fewer in tests).
+    episodes_per_chunk: u32,
     told_waiting: bool,
     /// Kept only when asked for, so long runs do not accumulate them.
     timings: Option<Vec<ChunkTiming>>,

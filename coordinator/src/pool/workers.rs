@@ -41,6 +41,7 @@ impl<T: Transport> Pool<T> {
             beside: placement.coordinator,
             cpus: allowed.len().max(1),
             stands_in: false,
+            episodes_per_chunk: lander_protocol::wire::MOST_EPISODES_PER_CHUNK,
             children: Children::new(
                 opts.worker_exe.clone(),
                 opts.run_id.clone(),

@@ -366,4 +366,25 @@ fn the_largest_chunk_and_its_answer_fit_their_bound() {
             );
         }
     }
+    // The records of the longest leg a training chunk flies.
+    use lander_model::{EpisodeRecord, Training};
+    let widest = EpisodeRecord {
+        episode: u32::MAX,
+        reward: -f64::MAX,
+        ticks: u32::MAX,
+        decisions: u32::MAX,
+        safe: true,
+        epsilon: f64::MAX,
+    };
+    let leg = TrainResult {
+        training: Training {
+            episodes: u32::MAX,
+            first_safe: Some(u32::MAX),
+            landing_rate_last_100: 1.0,
+        },
+        episodes: vec![widest; MOST_EPISODES_PER_CHUNK as usize],
+        state: None,
+    };
+    let bytes = encode_result(&ResultHeader::default(), &encode(&leg)).len();
+    assert!(bytes <= MAX_CHUNK_BYTES, "a leg's answer of {bytes} bytes");
 }

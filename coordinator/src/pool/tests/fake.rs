@@ -5,7 +5,8 @@ use crate::pool::{
     Answer, Arrival, Chunk, ChunkTiming, Pool, PoolOptions, Transport, WorkerLink, DEPTH,
 };
 use crate::stop::Stop;
-use lander_protocol::wire::{EvalJob, JobHeader, WireGene};
+use lander_model::learn::run_training;
+use lander_protocol::wire::{encode, Job, JobHeader, WireGene};
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -13,7 +14,8 @@ use std::time::{Duration, Instant};
 /// Records what it is sent; with an `answer`, answers every chunk with it
 /// at the next poll, or, if it `fails_checks`, all but the last, whose
 /// answer fails the link's own checks and breaks it. One that `flies`
-/// evaluates each chunk as a worker does, and answers with the result.
+/// evaluates or trains each chunk as a worker does, and answers with the
+/// result.
 pub struct Recorder {
     pub id: u64,
     pub chunks: Vec<usize>,
@@ -86,8 +88,11 @@ impl WorkerLink for Recorder {
         _: Option<Duration>,
     ) -> Result<(), String> {
         if self.flies {
-            let job = EvalJob::from_wire(&header, genes).map_err(|e| e.to_string())?;
-            self.flown.insert(chunk, job.run().encode());
+            let body = match Job::from_wire(&header, genes).map_err(|e| e.to_string())? {
+                Job::Evaluate(job) => job.run().encode(),
+                Job::Train(job) => encode(&run_training(&job)?),
+            };
+            self.flown.insert(chunk, body);
         }
         self.chunks.push(chunk);
         self.sent.push(chunk);

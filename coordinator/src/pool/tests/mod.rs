@@ -11,4 +11,5 @@ mod dispatch;
 mod fake;
 mod refusals;
 mod share;
+mod training;
 mod versions;
