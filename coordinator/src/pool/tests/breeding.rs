@@ -66,13 +66,7 @@ fn step_of(
 /// A pool over two links that fly each chunk as a worker does, paced as
 /// `pace` says.
 fn paced(pace: Pace) -> Pool<Nowhere> {
-    let links = (0..2)
-        .map(|id| Recorder {
-            flies: true,
-            ..Recorder::holding(id, Vec::new())
-        })
-        .collect();
-    let mut pool = super::fake::pool(links, Default::default());
+    let mut pool = super::fake::flying(2);
     pool.pace = pace;
     pool
 }

@@ -184,6 +184,17 @@ pub fn pool(links: Vec<Recorder>, telemetry: lander_telemetry::Telemetry) -> Poo
     pool
 }
 
+/// A pool over `n` links that fly or train each chunk as a worker does.
+pub fn flying(n: u64) -> Pool<Nowhere> {
+    let links = (0..n)
+        .map(|id| Recorder {
+            flies: true,
+            ..Recorder::holding(id, Vec::new())
+        })
+        .collect();
+    pool(links, Default::default())
+}
+
 pub fn no_chunks(n: usize) -> Vec<Chunk> {
     (0..n)
         .map(|_| Chunk {

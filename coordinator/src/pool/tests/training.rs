@@ -1,7 +1,6 @@
 //! Q(λ) trials over the pool: a trial longer than a chunk may fly goes out
 //! in legs, and comes back as the trial flown whole.
 
-use super::fake::Recorder;
 use crate::config::RunConfig;
 use crate::evaluator::Trainer;
 use lander_model::learn::run_training;
@@ -22,13 +21,7 @@ fn trial(episodes: u32, trial: u64) -> TrainJob {
 
 #[test]
 fn a_long_trial_goes_out_in_legs_and_comes_back_whole() {
-    let links = (0..2)
-        .map(|id| Recorder {
-            flies: true,
-            ..Recorder::holding(id, Vec::new())
-        })
-        .collect();
-    let mut pool = super::fake::pool(links, Default::default());
+    let mut pool = super::fake::flying(2);
     pool.episodes_per_chunk = 7;
     // 20 episodes in legs of 7, 7 and 6; 5 in one; and a leg of a trial
     // (episodes 4 to 18 of 30, from where a first leg left it) in two.
