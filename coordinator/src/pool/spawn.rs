@@ -194,16 +194,14 @@ impl Children {
                     reason: e.to_string(),
                 }
             })?;
-        let started = ChildId {
-            id: self.next_id,
-            pid: child.id(),
-        };
-        self.procs.push(Spawned {
+        let spawned = Spawned {
             child,
             id: self.next_id,
             cpu,
             started: Instant::now(),
-        });
+        };
+        let started = spawned.child_id();
+        self.procs.push(spawned);
         self.next_id += 1;
         Ok(started)
     }
@@ -224,10 +222,7 @@ impl Children {
         self.procs.retain_mut(|p| match p.child.try_wait() {
             Ok(None) => true,
             Ok(Some(_)) | Err(_) => {
-                gone.push(ChildId {
-                    id: p.id,
-                    pid: p.child.id(),
-                });
+                gone.push(p.child_id());
                 self.free_cpus.extend(p.cpu);
                 false
             }

@@ -2,12 +2,11 @@
 //! them as it hands them out or first, in parallel (`Pace`), each flies as
 //! it does in-process.
 
-use super::fake::{Nowhere, Recorder};
+use super::fake::Nowhere;
 use crate::config::RunConfig;
 use crate::evaluator::{Batch, Evaluator, InProcess};
 use crate::ga::{random_population, Genome};
 use crate::pool::backend::Pace;
-use crate::pool::spawn::{stand_in_worker, Children, Placement};
 use crate::pool::Pool;
 use crate::trial::offspring;
 use lander_model::stream::streams;
@@ -106,27 +105,11 @@ fn breeding_as_handed_out_keeps_up_while_one_thread_does_not_hold_the_workers_up
     assert!(pace(400, 2800).keeps_up(8));
 }
 
-/// A pool over flying links, one per CPU, each with a stand-in process
-/// pinned to its CPU behind it: the last shares its CPU with the
-/// coordinator's thread.
+/// A pool over flying links, one per CPU, the last beside the
+/// coordinator, cutting a generation as `lander run` does: more chunks
+/// than the workers' queues hold while it is bred.
 fn on_every_cpu(dir: &std::path::Path) -> Pool<Nowhere> {
-    let allowed = lander_protocol::host::allowed_cpus();
-    let placement = Placement::new(allowed.len(), &allowed, true, Duration::ZERO);
-    let mut children = Children::new(stand_in_worker(dir), "t".into(), Vec::new(), 0, placement);
-    let links = (0..allowed.len())
-        .map(|_| {
-            let child = children.spawn().unwrap();
-            Recorder {
-                pid: child.pid,
-                flies: true,
-                ..Recorder::holding(child.id, Vec::new())
-            }
-        })
-        .collect();
-    let mut pool = super::fake::pool(links, Default::default());
-    pool.children = children;
-    // As `lander run` cuts a generation: more chunks than the workers'
-    // queues hold while it is bred.
+    let mut pool = super::fake::on_every_cpu(dir, true);
     pool.opts.chunks_per_worker = crate::pool::DEPTH;
     pool.opts.stand_in = true;
     pool

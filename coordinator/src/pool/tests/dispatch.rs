@@ -5,10 +5,8 @@
 use super::fake::{no_chunks, Nowhere, Recorder};
 use crate::pool::progress::Progress;
 use crate::pool::schedule::Early;
-use crate::pool::spawn::{stand_in_worker, Children, Placement};
 use crate::pool::{Pool, DEPTH};
 use std::collections::VecDeque;
-use std::time::Duration;
 
 fn pool(links: Vec<Vec<usize>>) -> Pool<Nowhere> {
     let links = (0..)
@@ -98,25 +96,12 @@ fn chunks_bred_one_by_one_go_round_robin_to_workers_with_room() {
 #[test]
 fn chunks_bred_one_by_one_skip_the_worker_beside_the_coordinator() {
     let dir = tempfile::tempdir().unwrap();
-    let exe = stand_in_worker(dir.path());
     // A stand-in worker pinned to each CPU: the last shares its CPU with
     // the coordinator's thread.
-    let allowed = lander_protocol::host::allowed_cpus();
-    let placement = Placement::new(allowed.len(), &allowed, true, Duration::ZERO);
-    let mut children = Children::new(exe, "t".into(), Vec::new(), 0, placement);
-    let links = (0..allowed.len())
-        .map(|_| {
-            let child = children.spawn().unwrap();
-            Recorder {
-                pid: child.pid,
-                ..Recorder::holding(child.id, Vec::new())
-            }
-        })
-        .collect();
-    let mut pool = super::fake::pool(links, Default::default());
-    pool.children = children;
-    let others = allowed.len() - 1;
-    let (sent, early) = handed_early(&mut pool, allowed.len() * DEPTH);
+    let mut pool = super::fake::on_every_cpu(dir.path(), false);
+    let workers = pool.links.len();
+    let others = workers - 1;
+    let (sent, early) = handed_early(&mut pool, workers * DEPTH);
     assert_eq!(sent.last(), Some(&vec![]), "the coordinator's neighbour");
     assert!(
         sent[..others].iter().all(|s| s.len() == DEPTH),

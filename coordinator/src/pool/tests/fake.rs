@@ -195,6 +195,29 @@ pub fn flying(n: u64) -> Pool<Nowhere> {
     pool(links, Default::default())
 }
 
+/// A pool over a link per CPU, each with a stand-in worker process pinned
+/// to its CPU behind it (in `dir`): the last shares its CPU with the
+/// coordinator's thread. Links that `fly` evaluate and train as workers do.
+pub fn on_every_cpu(dir: &std::path::Path, fly: bool) -> Pool<Nowhere> {
+    use crate::pool::spawn::{stand_in_worker, Children, Placement};
+    let allowed = lander_protocol::host::allowed_cpus();
+    let placement = Placement::new(allowed.len(), &allowed, true, Duration::ZERO);
+    let mut children = Children::new(stand_in_worker(dir), "t".into(), Vec::new(), 0, placement);
+    let links = (0..allowed.len())
+        .map(|_| {
+            let child = children.spawn().unwrap();
+            Recorder {
+                pid: child.pid,
+                flies: fly,
+                ..Recorder::holding(child.id, Vec::new())
+            }
+        })
+        .collect();
+    let mut pool = pool(links, Default::default());
+    pool.children = children;
+    pool
+}
+
 pub fn no_chunks(n: usize) -> Vec<Chunk> {
     (0..n)
         .map(|_| Chunk {
