@@ -172,6 +172,19 @@ pub enum EvalError {
     Interrupted,
     #[error("a Q(λ) leg cannot start from its state: {0}")]
     Training(String),
+    #[error(
+        "qlearning.memory_bits = {memory_bits}: the trial's state travels to the workers \
+         between legs ({why}), and at up to {bytes} bytes it does not fit a network frame \
+         of {} bytes; use qlearning.memory_bits of {} or less, or train in-process \
+         (without --workers or --connect)",
+        lander_protocol::envelope::MAX_FRAME,
+        lander_model::params::MAX_MEMORY_BITS - 1
+    )]
+    StateTooLarge {
+        memory_bits: u32,
+        bytes: usize,
+        why: String,
+    },
 }
 
 /// Flies batches and returns one evaluation per genome, in order.
@@ -219,6 +232,13 @@ pub trait Evaluator {
 /// Runs Q(λ) trials, one per job; a learner is sequential within a trial,
 /// so trials are the unit of parallelism.
 pub trait Trainer {
+    /// Whether this trainer can run `jobs`, asked before anything runs:
+    /// an experiment trains after its GA trials, and finding out then
+    /// would waste them.
+    fn can_train(&self, _jobs: &[TrainJob]) -> Result<(), EvalError> {
+        Ok(())
+    }
+
     /// Returns the results in job order, showing `done` each one as it
     /// arrives.
     fn train(

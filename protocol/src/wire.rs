@@ -148,6 +148,45 @@ const EPISODE_BYTES: usize = 40;
 /// from where the last left the trial.
 pub const MOST_EPISODES_PER_CHUNK: u32 = (MAX_CHUNK_BYTES / EPISODE_BYTES) as u32;
 
+/// More than a weight of a Q(λ) state takes on the wire: its index, a
+/// varint of 5 bytes at the most, and its value.
+const WEIGHT_BYTES: usize = 13;
+
+/// More than the rest of a Q(λ) state takes: its counters, the stream's
+/// position and the last 100 landings.
+const STATE_BYTES: usize = 256;
+
+/// The most bytes the state of a Q(λ) trial whose agent has
+/// `2^memory_bits` weights takes on the wire: every weight set.
+pub fn most_state_bytes(memory_bits: u32) -> usize {
+    state_bytes(1 << memory_bits)
+}
+
+/// The most bytes a Q(λ) state of `weights` weights set takes on the wire.
+pub fn state_bytes(weights: usize) -> usize {
+    weights
+        .saturating_mul(WEIGHT_BYTES)
+        .saturating_add(STATE_BYTES)
+}
+
+/// Whether a leg's job, carrying a state of `bytes` bytes, fits a network
+/// frame.
+pub fn state_fits(bytes: usize) -> bool {
+    bytes.saturating_add(STATE_BYTES) <= crate::envelope::MAX_FRAME
+}
+
+/// The most episodes one training chunk flies where the trial's state
+/// travels with it (a leg after the first, or before the last): its
+/// records and the state fit one network frame together, and the records
+/// [`MAX_CHUNK_BYTES`] still. `None` where the state alone may not fit:
+/// such a trial cannot go out in legs.
+pub fn most_episodes_beside_state(memory_bits: u32) -> Option<u32> {
+    let room =
+        crate::envelope::MAX_FRAME.checked_sub(most_state_bytes(memory_bits) + STATE_BYTES)?;
+    let episodes = (room / EPISODE_BYTES).min(MOST_EPISODES_PER_CHUNK as usize) as u32;
+    (episodes > 0).then_some(episodes)
+}
+
 /// The most genomes of `length` genes one chunk may carry: its job takes
 /// two bytes a gene, its answer a byte a gene (the guided pass's actions)
 /// and an evaluation a genome.

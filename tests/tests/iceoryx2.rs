@@ -1069,3 +1069,60 @@ fn a_worker_signalled_as_it_starts_leaves_no_iceoryx2_file() {
         );
     }
 }
+
+/// A Q(λ) agent of 2^24 weights has a state that no network frame is sure
+/// to hold: over workers, a run or an experiment whose state would travel
+/// between legs is refused up front, naming the field, before any trial
+/// of the experiment runs.
+#[test]
+fn a_learner_too_large_to_travel_between_legs_is_refused_up_front() {
+    let _one = serial();
+    let iox = Iox::new("q24");
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("q24.toml");
+    fs::write(
+        &cfg,
+        "method = \"qlearning\"\n[qlearning]\nmemory_bits = 24\nepisodes = 300\n",
+    )
+    .unwrap();
+    let run = iox
+        .command("lander")
+        .args(["run", "--workers", "1", "--checkpoint-every", "100"])
+        .arg("--config")
+        .arg(&cfg)
+        .arg("--out")
+        .arg(dir.path().join("run"))
+        .output()
+        .unwrap();
+    assert!(!run.status.success());
+    let said = stderr(&run);
+    assert!(said.contains("qlearning.memory_bits = 24"), "{said}");
+    assert!(said.contains("in-process"), "{said}");
+    assert!(
+        !said.contains("panicked") && !said.contains("--resume"),
+        "{said}"
+    );
+
+    let exp = dir.path().join("exp.toml");
+    fs::write(
+        &exp,
+        "name = \"q24\"\nseed = 1\ntrials = 1\nmethods = [\"ga\", \"qlearning\"]\n\
+         [qlearning]\nmemory_bits = 24\nepisodes = 1000000\n",
+    )
+    .unwrap();
+    let out = dir.path().join("exp");
+    let experiment = iox
+        .command("lander")
+        .args(["experiment", "--workers", "1"])
+        .arg(&exp)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!experiment.status.success());
+    let said = stderr(&experiment);
+    assert!(said.contains("qlearning.memory_bits = 24"), "{said}");
+    assert!(said.contains("legs"), "{said}");
+    let trials = fs::read_dir(out.join("trials")).map_or(0, |d| d.count());
+    assert_eq!(trials, 0, "trials run before the refusal");
+}

@@ -187,6 +187,8 @@ fn on_workers(
             until,
             ..TrainJob::whole(cfg.env(0), cfg.guided, cfg.qlearning, key(cfg))
         };
+        // Refused before it starts, a leg leaves nothing to resume.
+        pool.can_train(std::slice::from_ref(&job))?;
         let result = pool
             .train(std::slice::from_ref(&job), &mut |_, _| ())
             .with_context(|| {

@@ -98,6 +98,7 @@ pub fn run<K: Copy + Send + Sync>(
     let (learning, evolving): (Vec<&Task<K>>, Vec<&Task<K>>) = tasks
         .iter()
         .partition(|t| t.cfg.method == Method::Qlearning);
+    backend.can_train(&train_jobs(&learning))?;
     let mut evolved = Ok(());
     let started = Instant::now();
     backend.drive(&mut |evaluator| {
@@ -220,17 +221,7 @@ fn learn<K: Copy>(
     if tasks.is_empty() {
         return Ok(());
     }
-    let jobs: Vec<TrainJob> = tasks
-        .iter()
-        .map(|Task { cfg, .. }| {
-            TrainJob::whole(
-                cfg.env(0),
-                cfg.guided,
-                cfg.qlearning,
-                StreamKey::new(cfg.seed, cfg.trial, 0, 0),
-            )
-        })
-        .collect();
+    let jobs = train_jobs(tasks);
     for task in tasks {
         progress.started(task.key, &task.cfg);
     }
@@ -248,6 +239,21 @@ fn learn<K: Copy>(
         }
     })?;
     failure.map_or(Ok(()), Err)
+}
+
+/// Each Q(λ) task's trial, whole.
+fn train_jobs<K>(tasks: &[&Task<K>]) -> Vec<TrainJob> {
+    tasks
+        .iter()
+        .map(|Task { cfg, .. }| {
+            TrainJob::whole(
+                cfg.env(0),
+                cfg.guided,
+                cfg.qlearning,
+                StreamKey::new(cfg.seed, cfg.trial, 0, 0),
+            )
+        })
+        .collect()
 }
 
 /// The record of a finished GA trial.

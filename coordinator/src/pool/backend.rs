@@ -12,14 +12,22 @@ use lander_model::learn::{run_training, LearnState};
 use lander_model::{Action, Evaluation, TrainJob, TrainResult};
 use lander_protocol::host::thread_cpu_time;
 use lander_protocol::wire::{
-    decode_training, most_genomes_per_chunk, pack_state, ChunkResult, JobHeader, WireGene,
-    KIND_EVALUATE, KIND_TRAIN, PROTOCOL_VERSION,
+    decode_training, most_episodes_beside_state, most_genomes_per_chunk, most_state_bytes,
+    pack_state, state_bytes, state_fits, ChunkResult, JobHeader, WireGene, KIND_EVALUATE,
+    KIND_TRAIN, PROTOCOL_VERSION,
 };
 use rayon::prelude::*;
 use std::ops::Range;
 use std::time::Duration;
 
 impl<T: Transport> Trainer for Pool<T> {
+    /// Refuses a trial whose state would travel with a leg and may not
+    /// fit a network frame ([`Pool::episodes_per_leg`]).
+    fn can_train(&self, jobs: &[TrainJob]) -> Result<(), EvalError> {
+        jobs.iter()
+            .try_for_each(|t| self.episodes_per_leg(t).map(drop))
+    }
+
     /// Each trial in legs of at most `episodes_per_chunk` episodes
     /// (`MOST_EPISODES_PER_CHUNK`), every trial's next leg going out
     /// together, each from the state the last left: a trial of millions
@@ -30,12 +38,16 @@ impl<T: Transport> Trainer for Pool<T> {
         trials: &[TrainJob],
         done: &mut dyn FnMut(usize, &TrainResult),
     ) -> Result<Vec<TrainResult>, EvalError> {
-        let per_chunk = self.episodes_per_chunk.max(1);
+        let per_leg: Vec<u32> = trials
+            .iter()
+            .map(|t| self.episodes_per_leg(t))
+            .collect::<Result<_, _>>()?;
         // Each trial's records so far, and the leg it flies next.
         let mut so_far: Vec<Option<TrainResult>> = vec![None; trials.len()];
         let mut next: Vec<Option<TrainJob>> = trials
             .iter()
-            .map(|t| Some(leg(t, t.from.clone(), per_chunk)))
+            .zip(&per_leg)
+            .map(|(t, &n)| Some(leg(t, t.from.clone(), n)))
             .collect();
         loop {
             let open: Vec<usize> = (0..trials.len()).filter(|&i| next[i].is_some()).collect();
@@ -58,7 +70,7 @@ impl<T: Transport> Trainer for Pool<T> {
                     Some(before) => joined(before, answer),
                 };
                 if legs[k].until < trials[i].until {
-                    next[i] = Some(leg(&trials[i], whole.state.clone(), per_chunk));
+                    next[i] = Some(leg(&trials[i], whole.state.clone(), per_leg[i]));
                 }
                 so_far[i] = Some(whole);
             }
@@ -90,6 +102,45 @@ fn joined(mut before: TrainResult, after: TrainResult) -> TrainResult {
 }
 
 impl<T: Transport> Pool<T> {
+    /// The most episodes a leg of `trial` flies: `episodes_per_chunk`, or
+    /// fewer where a leg's answer carries the trial's state on, so that
+    /// its records and that state fit a network frame together
+    /// (`most_episodes_beside_state`). A state that may not fit at all,
+    /// going out or coming back, is an error, found before any leg goes
+    /// out.
+    fn episodes_per_leg(&self, trial: &TrainJob) -> Result<u32, EvalError> {
+        let per_chunk = self.episodes_per_chunk.max(1);
+        let learn = &trial.learn;
+        let too_large = |bytes, why| EvalError::StateTooLarge {
+            memory_bits: learn.memory_bits,
+            bytes,
+            why,
+        };
+        let start = trial.from.as_ref().map_or(0, |s| s.episodes);
+        if let Some(from) = &trial.from {
+            let bytes = state_bytes(from.weights.len());
+            if !state_fits(bytes) {
+                let why = format!("it starts from a state of {} weights", from.weights.len());
+                return Err(too_large(bytes, why));
+            }
+        }
+        let why = if trial.until < learn.episodes {
+            format!(
+                "a leg ends at episode {} of {}",
+                trial.until, learn.episodes
+            )
+        } else if trial.until.saturating_sub(start) > per_chunk {
+            let left = trial.until - start;
+            format!("its {left} episodes go out in legs of at most {per_chunk}")
+        } else {
+            return Ok(per_chunk);
+        };
+        match most_episodes_beside_state(learn.memory_bits) {
+            Some(most) => Ok(per_chunk.min(most)),
+            None => Err(too_large(most_state_bytes(learn.memory_bits), why)),
+        }
+    }
+
     /// One chunk per leg, with no deadline: a dead trainer is still found
     /// by its exit or its node's death. A leg's starting state travels in
     /// the genes' place (`pack_state`).

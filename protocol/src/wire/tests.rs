@@ -367,24 +367,84 @@ fn the_largest_chunk_and_its_answer_fit_their_bound() {
         }
     }
     // The records of the longest leg a training chunk flies.
-    use lander_model::{EpisodeRecord, Training};
-    let widest = EpisodeRecord {
-        episode: u32::MAX,
-        reward: -f64::MAX,
-        ticks: u32::MAX,
-        decisions: u32::MAX,
-        safe: true,
-        epsilon: f64::MAX,
-    };
+    use lander_model::Training;
     let leg = TrainResult {
         training: Training {
             episodes: u32::MAX,
             first_safe: Some(u32::MAX),
             landing_rate_last_100: 1.0,
         },
-        episodes: vec![widest; MOST_EPISODES_PER_CHUNK as usize],
+        episodes: vec![widest_episode(); MOST_EPISODES_PER_CHUNK as usize],
         state: None,
     };
     let bytes = encode_result(&ResultHeader::default(), &encode(&leg)).len();
     assert!(bytes <= MAX_CHUNK_BYTES, "a leg's answer of {bytes} bytes");
+}
+
+/// The widest record postcard writes for an episode.
+fn widest_episode() -> lander_model::EpisodeRecord {
+    lander_model::EpisodeRecord {
+        episode: u32::MAX,
+        reward: -f64::MAX,
+        ticks: u32::MAX,
+        decisions: u32::MAX,
+        safe: true,
+        epsilon: f64::MAX,
+    }
+}
+
+/// The widest state of an agent of `2^memory_bits` weights: every
+/// weight set, every number as wide as postcard writes it.
+fn widest_state(memory_bits: u32) -> LearnState {
+    LearnState {
+        episodes: u32::MAX,
+        rng_word: u128::MAX,
+        first_safe: Some(u32::MAX),
+        recent: vec![true; 100],
+        weights: vec![(u32::MAX, -f64::MAX); 1 << memory_bits],
+    }
+}
+
+#[test]
+fn a_state_takes_at_most_its_bound() {
+    for bits in [4, 12, 18] {
+        let bytes = encode(&widest_state(bits)).len();
+        assert!(
+            bytes <= most_state_bytes(bits),
+            "{bits} bits: {bytes} bytes"
+        );
+    }
+}
+
+#[test]
+fn a_leg_with_the_largest_state_that_travels_fits_a_frame() {
+    use crate::envelope::{encode_job, encode_result, MAX_FRAME};
+    use lander_model::params::MAX_MEMORY_BITS;
+    use lander_model::Training;
+    assert_eq!(most_episodes_beside_state(MAX_MEMORY_BITS), None);
+    let bits = MAX_MEMORY_BITS - 1;
+    let most = most_episodes_beside_state(bits).expect("the state travels");
+    assert!(most > 100_000, "{most} episodes a leg");
+    let state = widest_state(bits);
+    let (genes, len) = pack_state(Some(&state));
+    let job = encode_job(
+        &JobHeader {
+            state_len: len,
+            ..header(0, 0)
+        },
+        &genes,
+    );
+    assert!(job.len() <= MAX_FRAME, "a job of {} bytes", job.len());
+    drop(genes);
+    let leg = TrainResult {
+        training: Training {
+            episodes: u32::MAX,
+            first_safe: Some(u32::MAX),
+            landing_rate_last_100: 1.0,
+        },
+        episodes: vec![widest_episode(); most as usize],
+        state: Some(state),
+    };
+    let answer = encode_result(&ResultHeader::default(), &encode(&leg)).len();
+    assert!(answer <= MAX_FRAME, "an answer of {answer} bytes");
 }
