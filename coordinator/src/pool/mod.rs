@@ -128,6 +128,10 @@ pub struct Pool<T: Transport> {
     /// Workers dropped once are not taken back: a worker that restarts
     /// comes back under a new id.
     dropped: HashSet<u64>,
+    /// Workers refused since their links were last dropped: the refusal is
+    /// told as it is made. A link broken otherwise (a send that failed, a
+    /// worker gone) is dropped as its worker's death.
+    refused: HashSet<u64>,
     children: Children,
     /// The job id the next chunk sent goes under.
     next_job: u64,

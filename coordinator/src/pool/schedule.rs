@@ -124,9 +124,9 @@ impl<T: Transport> Pool<T> {
             }
             self.accept()?;
             self.reap(&mut progress.todo)?;
-            let (fresh, malformed) = self.collect(&mut progress);
+            let fresh = self.collect(&mut progress);
             let todo = &mut progress.todo;
-            self.drop_links(todo, |l| malformed.contains(&l.id()), Cause::Refused);
+            self.drop_refused(todo);
             // A killed worker's connection closes as its process exits, a
             // moment before the process can be reaped: a spawned worker
             // whose link broke is given that moment, and the exits are
@@ -170,7 +170,7 @@ impl<T: Transport> Pool<T> {
                     &mut finished,
                 );
             }
-            self.drop_links(&mut progress.todo, |l| l.is_broken(), Cause::Refused);
+            self.drop_refused(&mut progress.todo);
             // The checks of the answers just held, and the chunks of a
             // worker just refused, go out now, not after a sleep (a check
             // with no other worker to fly it is decided here, and may end
@@ -185,10 +185,12 @@ impl<T: Transport> Pool<T> {
                 });
             }
             self.tell_waiting();
-            // A refused worker's chunks that found no room go out at the
-            // next pass, not after a sleep; with a share of its own, the
-            // coordinator sleeps only when it has nothing to fly.
+            // A refused worker's chunks that found no room, and those of a
+            // link that broke in this pass, go out at the next pass, not
+            // after a sleep; with a share of its own, the coordinator
+            // sleeps only when it has nothing to fly.
             if distrusted.is_empty()
+                && !self.links.iter().any(|l| l.is_broken())
                 && !self.fly_a_share(chunks, &mut progress, check, &mut finished)
             {
                 self.sleep()?;
@@ -225,7 +227,7 @@ impl<T: Transport> Pool<T> {
         for (c, verdict) in self.dispatch_checks(chunks, progress, check) {
             self.apply(progress, c, verdict, distrusted, finished);
         }
-        self.drop_links(&mut progress.todo, |l| l.is_broken(), Cause::Refused);
+        self.drop_refused(&mut progress.todo);
         self.rebalance(chunks, progress);
         progress.sort();
         self.dispatch(chunks, &mut progress.todo);
@@ -282,7 +284,7 @@ impl<T: Transport> Pool<T> {
             pid = link.pid();
         }
         let who = self.worker_ref(worker, pid);
-        self.refuse(who.clone(), why);
+        self.refuse(worker, who.clone(), why);
         // Its other answers are no longer believed either.
         let chunks = progress.disown(worker) + usize::from(and_one);
         if chunks > 0 {
@@ -296,17 +298,16 @@ impl<T: Transport> Pool<T> {
 
     /// The answers that arrived, each with the worker that gave it, to
     /// chunks not answered before (a chunk run twice keeps its first
-    /// answer); checked, not yet decoded. Also the workers whose answer
-    /// failed its checks, refused now.
-    fn collect<R>(&mut self, progress: &mut Progress<R>) -> (Vec<(u64, Answer)>, Vec<u64>) {
+    /// answer); checked, not yet decoded. A worker whose answer failed its
+    /// checks is refused now.
+    fn collect<R>(&mut self, progress: &mut Progress<R>) -> Vec<(u64, Answer)> {
         let mut fresh = Vec::new();
-        let mut malformed = Vec::new();
         for i in 0..self.links.len() {
             let (answers, refused) = self.links[i].poll();
             let (id, pid) = (self.links[i].id(), self.links[i].pid());
             if let Some(e) = refused {
-                self.refuse(self.worker_ref(id, pid), format!("a result: {e}"));
-                malformed.push(id);
+                let who = self.worker_ref(id, pid);
+                self.refuse(id, who, format!("a result: {e}"));
             }
             for a in answers {
                 self.busy += a.timing.compute();
@@ -321,15 +322,26 @@ impl<T: Transport> Pool<T> {
                 }
             }
         }
-        (fresh, malformed)
+        fresh
     }
 
-    /// Refuses `worker` for good, saying why.
-    fn refuse(&self, worker: lander_telemetry::WorkerRef, why: String) {
+    /// Refuses worker `id` for good, saying why; its link is dropped by
+    /// the next [`Pool::drop_refused`].
+    fn refuse(&mut self, id: u64, worker: lander_telemetry::WorkerRef, why: String) {
         if let Some(m) = self.telemetry.metrics() {
             m.chunks_refused.inc();
         }
         self.telemetry.event(Event::WorkerRefused { worker, why });
+        self.refused.insert(id);
+    }
+
+    /// Drops the links of the workers refused since the last look. Only
+    /// theirs: a link that broke otherwise, such as a send to a worker
+    /// just killed, is dropped at the loop's next look as its worker's
+    /// death, and told as one.
+    fn drop_refused(&mut self, todo: &mut VecDeque<usize>) {
+        let refused = std::mem::take(&mut self.refused);
+        self.drop_links(todo, |l| refused.contains(&l.id()), Cause::Refused);
     }
 
     /// Once nothing is left to hand out, gives each idle worker the last
@@ -416,7 +428,7 @@ impl<T: Transport> Pool<T> {
                     if let Some(held) = progress.release(c) {
                         let verdict = self.decide(check, c, held, None);
                         self.apply(progress, c, verdict, &mut Vec::new(), finished);
-                        self.drop_links(&mut progress.todo, |l| l.is_broken(), Cause::Refused);
+                        self.drop_refused(&mut progress.todo);
                     }
                     return true;
                 }

@@ -52,6 +52,7 @@ impl<T: Transport> Pool<T> {
             transport,
             links: Vec::new(),
             dropped: HashSet::new(),
+            refused: HashSet::new(),
             next_job: 0,
             taken_back: 0,
             flown_here: 0,

@@ -27,6 +27,9 @@ pub struct Recorder {
     pub flown: HashMap<usize, Vec<u8>>,
     pub fails_checks: bool,
     pub broken: bool,
+    /// Sends that succeed before every send fails, as to a worker killed
+    /// (`None`: every send succeeds).
+    pub sends_left: Option<usize>,
     pub pid: u32,
 }
 
@@ -42,6 +45,7 @@ impl Recorder {
             flown: HashMap::new(),
             fails_checks: false,
             broken: false,
+            sends_left: None,
         }
     }
 
@@ -87,6 +91,11 @@ impl WorkerLink for Recorder {
         chunk: usize,
         _: Option<Duration>,
     ) -> Result<(), String> {
+        if self.sends_left == Some(0) {
+            self.broken = true;
+            return Err("the worker is gone".into());
+        }
+        self.sends_left = self.sends_left.map(|n| n - 1);
         if self.flies {
             let body = match Job::from_wire(&header, genes).map_err(|e| e.to_string())? {
                 Job::Evaluate(job) => job.run().encode(),
