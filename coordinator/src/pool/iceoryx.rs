@@ -14,6 +14,7 @@ use iceoryx2::prelude::*;
 use lander_protocol::host::host_clock_ns;
 use lander_protocol::iox::{self, IpcError, RunNames, JOB_EVENT, MAX_QUEUED, SHUTDOWN_EVENT};
 use lander_protocol::wire::{JobHeader, ResultHeader, WireGene, WorkerAnnounce};
+use std::collections::HashMap;
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
@@ -32,6 +33,9 @@ pub struct Iceoryx {
     last_reap: Instant,
     /// This host's name, which every worker shares.
     host: String,
+    /// Links opened for spawned workers that have not announced
+    /// themselves yet ([`Transport::expect`]), by worker id.
+    opened: HashMap<u64, Link>,
 }
 
 impl Iceoryx {
@@ -75,6 +79,7 @@ impl Iceoryx {
             wake,
             last_reap: Instant::now(),
             host: lander_protocol::host::name(),
+            opened: HashMap::new(),
         })
     }
 }
@@ -106,12 +111,25 @@ impl Transport for Iceoryx {
     }
 
     fn connect(&mut self, a: &Arrival) -> Result<Link, String> {
-        let announce = WorkerAnnounce {
-            version: a.version,
-            pid: a.pid,
-            worker_id: a.id,
-        };
-        Link::open(&self.node, &self.names, announce).map_err(|e| e.to_string())
+        if let Some(mut link) = self.opened.remove(&a.id) {
+            link.pid = a.pid;
+            return Ok(link);
+        }
+        Link::open(&self.node, &self.names, a.id, a.pid).map_err(|e| e.to_string())
+    }
+
+    /// Opens the worker's services and its client now. Opening a client
+    /// sets up its connections' shared memory (iceoryx2 sizes it for every
+    /// segment a dynamic data segment may grow to), about 4 ms of the
+    /// coordinator's CPU where the worker's server is there first; where
+    /// the client is there first, the worker's server sets them up as it
+    /// starts, on its own CPU, and the client later opens them. A link
+    /// that fails to open here is opened again when the worker announces
+    /// itself.
+    fn expect(&mut self, id: u64) {
+        if let Ok(link) = Link::open(&self.node, &self.names, id, 0) {
+            self.opened.insert(id, link);
+        }
     }
 
     fn departures(&mut self) -> Vec<u64> {
@@ -137,7 +155,12 @@ impl Transport for Iceoryx {
         Vec::new()
     }
 
+    fn forget(&mut self, id: u64) {
+        self.opened.remove(&id);
+    }
+
     fn close(&mut self) {
+        self.opened.clear();
         self.node.try_cleanup_dead_nodes();
     }
 }
@@ -177,21 +200,22 @@ impl Link {
     fn open(
         node: &Node<ipc::Service>,
         names: &RunNames,
-        w: WorkerAnnounce,
+        worker_id: u64,
+        pid: u32,
     ) -> Result<Link, IpcError> {
-        let client = iox::eval_service(node, &names.eval(w.worker_id))?
+        let client = iox::eval_service(node, &names.eval(worker_id))?
             .client_builder()
             .initial_max_slice_len(4096)
             .allocation_strategy(AllocationStrategy::PowerOfTwo)
             .create()
             .map_err(iox::fail("creating a client"))?;
-        let jobs = iox::event_service(node, &names.jobs(w.worker_id))?
+        let jobs = iox::event_service(node, &names.jobs(worker_id))?
             .notifier_builder()
             .create()
             .map_err(iox::fail("creating a job notifier"))?;
         Ok(Link {
-            id: w.worker_id,
-            pid: w.pid,
+            id: worker_id,
+            pid,
             client,
             jobs,
             busy: VecDeque::new(),

@@ -35,6 +35,13 @@ pub trait Transport {
     /// Workers that announced themselves since the last look.
     fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError>;
     fn connect(&mut self, arrival: &Arrival) -> Result<Self::Link, String>;
+    /// Says that a worker of this id is starting, spawned by the pool: the
+    /// transport may open its link now, while the worker starts, for
+    /// [`Transport::connect`] to hand over once it announces itself.
+    fn expect(&mut self, _id: u64) {}
+    /// Says that the spawned worker of this id has exited: a link opened
+    /// for it that it never took up is closed.
+    fn forget(&mut self, _id: u64) {}
     /// Workers the transport has seen go since the last look.
     fn departures(&mut self) -> Vec<u64>;
     /// Sleeps until a worker may have said something, at most `max`.

@@ -66,7 +66,8 @@ impl<T: Transport> Pool<T> {
             opts,
         };
         for _ in 0..pool.opts.spawn {
-            pool.children.spawn()?;
+            let child = pool.children.spawn()?;
+            pool.transport.expect(child.id);
         }
         Ok(pool)
     }
@@ -171,6 +172,7 @@ impl<T: Transport> Pool<T> {
     pub(super) fn reap(&mut self, todo: &mut VecDeque<usize>) -> Result<(), EvalError> {
         self.stop_workers_never_joined();
         for gone in self.children.exited() {
+            self.transport.forget(gone.id);
             let pid = gone.pid;
             // Nothing to drop for a worker dropped already, which the pool
             // killed, or one that died before it joined; such a one is
@@ -183,9 +185,11 @@ impl<T: Transport> Pool<T> {
                 });
             }
             match self.children.respawn()? {
-                Some(new) => self
-                    .telemetry
-                    .event(Event::WorkerRespawned { pid: new.pid }),
+                Some(new) => {
+                    self.transport.expect(new.id);
+                    self.telemetry
+                        .event(Event::WorkerRespawned { pid: new.pid })
+                }
                 None => tracing::warn!("worker process {pid} exited; no respawns left"),
             }
         }
