@@ -1123,6 +1123,7 @@ fn a_learner_too_large_to_travel_between_legs_is_refused_up_front() {
     let said = stderr(&experiment);
     assert!(said.contains("qlearning.memory_bits = 24"), "{said}");
     assert!(said.contains("legs"), "{said}");
+    assert!(!said.contains("--resume"), "a refusal, not a stop: {said}");
     let trials = fs::read_dir(out.join("trials")).map_or(0, |d| d.count());
     assert_eq!(trials, 0, "trials run before the refusal");
 }

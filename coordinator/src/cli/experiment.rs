@@ -11,7 +11,7 @@ use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::Backend;
 use lander_coordinator::experiment::outputs::{ordered, write_outputs};
 use lander_coordinator::experiment::{
-    experiment_tasks, run, trials, Experiment, ExperimentError, Progress, Store, TrialId,
+    can_run, experiment_tasks, run, trials, Experiment, ExperimentError, Progress, Store, TrialId,
 };
 use lander_coordinator::stop::Stop;
 use lander_coordinator::trial::Generation;
@@ -114,6 +114,7 @@ fn experiment_watched(
         labels: HashMap::new(),
     };
     let todo = experiment_tasks(&exp, &todo);
+    can_run(&todo, backend.as_ref())?;
     run(&todo, backend.as_mut(), in_flight, &mut progress).with_context(|| {
         let again = super::resume_command("experiment", &args.file, &out, args.trials, false);
         format!("the experiment stopped; `{again}` finishes it")

@@ -140,6 +140,7 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
         label: &label,
         labels: HashMap::new(),
     };
+    lander_coordinator::experiment::can_run(&plan.tasks, backend.as_ref())?;
     lander_coordinator::experiment::run(&plan.tasks, backend.as_mut(), in_flight, &mut progress)
         .with_context(|| {
             let again =

@@ -13,5 +13,7 @@ pub mod runner;
 pub mod store;
 
 pub use file::Experiment;
-pub use runner::{experiment_tasks, run, trials, ExperimentError, Progress, Task, TrialId};
+pub use runner::{
+    can_run, experiment_tasks, run, trials, ExperimentError, Progress, Task, TrialId,
+};
 pub use store::{Store, StoreError};

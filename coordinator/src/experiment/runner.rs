@@ -95,10 +95,10 @@ pub fn run<K: Copy + Send + Sync>(
     in_flight: usize,
     progress: &mut (dyn Progress<K> + Send),
 ) -> Result<(), ExperimentError> {
+    can_run(tasks, backend)?;
     let (learning, evolving): (Vec<&Task<K>>, Vec<&Task<K>>) = tasks
         .iter()
         .partition(|t| t.cfg.method == Method::Qlearning);
-    backend.can_train(&train_jobs(&learning))?;
     let mut evolved = Ok(());
     let started = Instant::now();
     backend.drive(&mut |evaluator| {
@@ -239,6 +239,16 @@ fn learn<K: Copy>(
         }
     })?;
     failure.map_or(Ok(()), Err)
+}
+
+/// Whether `backend` can run `tasks`: [`run`] asks before anything runs,
+/// and a caller may ask before it starts, to tell a refusal from a stop.
+pub fn can_run<K>(tasks: &[Task<K>], backend: &dyn Backend) -> Result<(), EvalError> {
+    let learning: Vec<&Task<K>> = tasks
+        .iter()
+        .filter(|t| t.cfg.method == Method::Qlearning)
+        .collect();
+    backend.can_train(&train_jobs(&learning))
 }
 
 /// Each Q(λ) task's trial, whole.
