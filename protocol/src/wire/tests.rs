@@ -367,16 +367,7 @@ fn the_largest_chunk_and_its_answer_fit_their_bound() {
         }
     }
     // The records of the longest leg a training chunk flies.
-    use lander_model::Training;
-    let leg = TrainResult {
-        training: Training {
-            episodes: u32::MAX,
-            first_safe: Some(u32::MAX),
-            landing_rate_last_100: 1.0,
-        },
-        episodes: vec![widest_episode(); MOST_EPISODES_PER_CHUNK as usize],
-        state: None,
-    };
+    let leg = widest_leg(MOST_EPISODES_PER_CHUNK, None);
     let bytes = encode_result(&ResultHeader::default(), &encode(&leg)).len();
     assert!(bytes <= MAX_CHUNK_BYTES, "a leg's answer of {bytes} bytes");
 }
@@ -390,6 +381,19 @@ fn widest_episode() -> lander_model::EpisodeRecord {
         decisions: u32::MAX,
         safe: true,
         epsilon: f64::MAX,
+    }
+}
+
+/// The widest answer of a leg of `episodes` episodes that carries `state`.
+fn widest_leg(episodes: u32, state: Option<LearnState>) -> TrainResult {
+    TrainResult {
+        training: lander_model::Training {
+            episodes: u32::MAX,
+            first_safe: Some(u32::MAX),
+            landing_rate_last_100: 1.0,
+        },
+        episodes: vec![widest_episode(); episodes as usize],
+        state,
     }
 }
 
@@ -420,7 +424,6 @@ fn a_state_takes_at_most_its_bound() {
 fn a_leg_with_the_largest_state_that_travels_fits_a_frame() {
     use crate::envelope::{encode_job, encode_result, MAX_FRAME};
     use lander_model::params::MAX_MEMORY_BITS;
-    use lander_model::Training;
     assert_eq!(most_episodes_beside_state(MAX_MEMORY_BITS), None);
     let bits = MAX_MEMORY_BITS - 1;
     let most = most_episodes_beside_state(bits).expect("the state travels");
@@ -436,15 +439,7 @@ fn a_leg_with_the_largest_state_that_travels_fits_a_frame() {
     );
     assert!(job.len() <= MAX_FRAME, "a job of {} bytes", job.len());
     drop(genes);
-    let leg = TrainResult {
-        training: Training {
-            episodes: u32::MAX,
-            first_safe: Some(u32::MAX),
-            landing_rate_last_100: 1.0,
-        },
-        episodes: vec![widest_episode(); most as usize],
-        state: Some(state),
-    };
+    let leg = widest_leg(most, Some(state));
     let answer = encode_result(&ResultHeader::default(), &encode(&leg)).len();
     assert!(answer <= MAX_FRAME, "an answer of {answer} bytes");
 }
