@@ -2,6 +2,8 @@
 //!
 //! - [`serve`]: the loops that answer jobs, over iceoryx2 or zenoh.
 //! - [`cpu`]: where the process runs (one CPU, the batch class).
+//! - [`parent`]: a spawned worker stops when the coordinator that spawned
+//!   it is gone.
 
 mod cpu;
 mod parent;

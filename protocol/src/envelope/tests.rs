@@ -1,3 +1,7 @@
+//! The envelope's tests: jobs and results round-trip; every kind of bad
+//! frame is refused; arbitrary or mutated bytes never panic the decoder
+//! and are refused or read as a wholly valid frame.
+
 use super::*;
 use crate::wire::{Job, KIND_EVALUATE};
 use lander_model::{Env, GuideParams, Pass, StreamKey};

@@ -1,6 +1,7 @@
 //! Serving over iceoryx2: announce itself to a run, then serve jobs from
-//! its own services until the run ends or a signal arrives. It sleeps in a
-//! WaitSet between jobs and never spins.
+//! its own services until the run ends or a signal arrives. Between jobs
+//! it polls for the next for a bounded, adaptive time where it has a CPU
+//! of its own (`Spin`), and otherwise sleeps in a WaitSet.
 
 use super::{answer, Exit, Note};
 use iceoryx2::prelude::*;
