@@ -19,7 +19,7 @@ use lander_model::Method;
 use lander_report::model::TrialRecord;
 use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 #[derive(Args, Debug)]
 pub struct ExperimentArgs {
@@ -106,6 +106,7 @@ fn experiment_watched(
             bars,
             overall: &overall,
             running: HashMap::new(),
+            training: Training::new("         "),
             store: &store,
             records: &mut records,
         },
@@ -173,30 +174,68 @@ pub(super) fn style(template: &str) -> ProgressStyle {
         .progress_chars("=> ")
 }
 
-/// One bar for the experiment and one per running trial; finished trials
-/// go to the store at once.
+/// The Q(λ) trials' one bar, `indent` the style's text before its label.
+/// They train as one batch, a trial per evaluation thread or worker at a
+/// time: a bar per trial would show every one of them training while
+/// most wait, and a sweep's hundreds would overrun the terminal. The
+/// spinner turns on its own, since a trial says nothing until it ends.
+pub(super) struct Training {
+    indent: &'static str,
+    bar: Option<ProgressBar>,
+}
+
+impl Training {
+    pub(super) fn new(indent: &'static str) -> Training {
+        Training { indent, bar: None }
+    }
+
+    /// One more trial to train, shown under `bars`.
+    pub(super) fn started(&mut self, bars: &MultiProgress) {
+        let indent = self.indent;
+        let bar = self.bar.get_or_insert_with(|| {
+            let bar = bars.add(ProgressBar::new(0));
+            bar.set_style(style(&format!(
+                "{indent}qlearning {{spinner}} [{{bar:20}}] {{pos}}/{{len}} trials trained"
+            )));
+            bar.enable_steady_tick(Duration::from_millis(120));
+            bar
+        });
+        bar.inc_length(1);
+    }
+
+    /// One trial trained; the bar goes once every trial it counts has.
+    pub(super) fn finished(&mut self, bars: &MultiProgress) {
+        let Some(bar) = &self.bar else {
+            return;
+        };
+        bar.inc(1);
+        if Some(bar.position()) >= bar.length() {
+            bar.finish_and_clear();
+            bars.remove(bar);
+            self.bar = None;
+        }
+    }
+}
+
+/// One bar for the experiment, one per running GA trial and one for the
+/// Q(λ) trials; finished trials go to the store at once.
 struct Bars<'a> {
     bars: &'a MultiProgress,
     overall: &'a ProgressBar,
     running: HashMap<TrialId, ProgressBar>,
+    training: Training,
     store: &'a Store,
     records: &'a mut Vec<TrialRecord>,
 }
 
 impl Progress<TrialId> for Bars<'_> {
     fn started(&mut self, task: TrialId, cfg: &RunConfig) {
-        let bar = match task.method {
-            Method::Qlearning => {
-                let bar = self.bars.add(ProgressBar::new_spinner());
-                bar.set_style(style("{prefix:>18} training {spinner}"));
-                bar
-            }
-            _ => {
-                let bar = self.bars.add(ProgressBar::new(cfg.ga.max_generations));
-                bar.set_style(style("{prefix:>18} [{bar:20}] gen {pos}/{len} {msg}"));
-                bar
-            }
-        };
+        if task.method == Method::Qlearning {
+            self.training.started(self.bars);
+            return;
+        }
+        let bar = self.bars.add(ProgressBar::new(cfg.ga.max_generations));
+        bar.set_style(style("{prefix:>18} [{bar:20}] gen {pos}/{len} {msg}"));
         bar.set_prefix(format!("{} trial {}", task.method.name(), task.trial));
         self.running.insert(task, bar);
     }
@@ -212,7 +251,9 @@ impl Progress<TrialId> for Bars<'_> {
         self.store
             .save(&record)
             .map_err(|e| ExperimentError::Store(e.to_string()))?;
-        if let Some(bar) = self.running.remove(&TrialId::of(&record)) {
+        if record.method == Method::Qlearning {
+            self.training.finished(self.bars);
+        } else if let Some(bar) = self.running.remove(&TrialId::of(&record)) {
             bar.finish_and_clear();
             self.bars.remove(&bar);
         }

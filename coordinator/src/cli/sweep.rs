@@ -3,7 +3,7 @@
 //! one per setting under way and one per running trial; written trial by
 //! trial so that `--resume` can finish an interrupted sweep.
 
-use super::experiment::{in_flight, say_busy, style};
+use super::experiment::{in_flight, say_busy, style, Training};
 use super::transport::TransportArgs;
 use super::watch::{trial_label, Watched};
 use anyhow::Context;
@@ -133,6 +133,7 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
             overall: &overall,
             settings: HashMap::new(),
             running: HashMap::new(),
+            training: Training::new("    "),
             store: &store,
             records: &mut records,
         },
@@ -161,8 +162,9 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
     Ok(())
 }
 
-/// The sweep's bar, one per setting under way (its trials finished) and one
-/// per running trial; finished trials go to their settings' stores at once.
+/// The sweep's bar, one per setting under way (its trials finished), one
+/// per running GA trial and one for the Q(λ) trials; finished trials go to
+/// their settings' stores at once.
 struct Bars<'a> {
     sweep: &'a Sweep,
     plan: &'a Plan,
@@ -170,6 +172,7 @@ struct Bars<'a> {
     overall: &'a ProgressBar,
     settings: HashMap<usize, ProgressBar>,
     running: HashMap<usize, ProgressBar>,
+    training: Training,
     store: &'a SweepStore,
     records: &'a mut Vec<Vec<TrialRecord>>,
 }
@@ -206,18 +209,12 @@ impl Progress<usize> for Bars<'_> {
             1 => String::new(),
             n => format!(" (+{} settings)", n - 1),
         };
-        let bar = match cfg.method {
-            Method::Qlearning => {
-                let bar = self.bars.add(ProgressBar::new_spinner());
-                bar.set_style(style("    {prefix} training {spinner}"));
-                bar
-            }
-            _ => {
-                let bar = self.bars.add(ProgressBar::new(cfg.ga.max_generations));
-                bar.set_style(style("    {prefix} [{bar:20}] gen {pos}/{len} {msg}"));
-                bar
-            }
-        };
+        if cfg.method == Method::Qlearning {
+            self.training.started(self.bars);
+            return;
+        }
+        let bar = self.bars.add(ProgressBar::new(cfg.ga.max_generations));
+        bar.set_style(style("    {prefix} [{bar:20}] gen {pos}/{len} {msg}"));
         bar.set_prefix(format!(
             "{name}{more}: {} trial {}",
             first.trial.method.name(),
@@ -251,7 +248,9 @@ impl Progress<usize> for Bars<'_> {
                 }
             }
         }
-        if let Some(bar) = self.running.remove(&task) {
+        if record.method == Method::Qlearning {
+            self.training.finished(self.bars);
+        } else if let Some(bar) = self.running.remove(&task) {
             bar.finish_and_clear();
             self.bars.remove(&bar);
         }
