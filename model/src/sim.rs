@@ -432,7 +432,7 @@ mod tests;
 /// those bits (and, for the lowest point, that hull scale), so the results
 /// are the same bit for bit.
 mod trig {
-    use std::cell::RefCell;
+    use std::cell::Cell;
 
     const SLOTS: usize = 256;
 
@@ -457,34 +457,41 @@ mod trig {
     };
 
     thread_local! {
-        static MEMO: RefCell<[Slot; SLOTS]> = const { RefCell::new([EMPTY; SLOTS]) };
+        // A `Cell` per slot, read and written whole: no borrow to count.
+        static MEMO: [Cell<Slot>; SLOTS] = const { [const { Cell::new(EMPTY) }; SLOTS] };
     }
 
-    /// The slot of `rot`, filled with its `sin_cos` if it held another
-    /// rotation.
+    /// The slot of `rot` as it is, and where it is kept. A slot that held
+    /// another rotation comes back filled with `rot`'s `sin_cos`, which
+    /// the caller then keeps.
     #[inline(always)]
-    fn with_slot<R>(rot: f64, f: impl FnOnce(&mut Slot) -> R) -> R {
+    fn slot(memo: &[Cell<Slot>; SLOTS], rot: f64) -> (Slot, &Cell<Slot>, bool) {
         let bits = rot.to_bits();
         // Fibonacci hashing: the top bits of the product mix every bit in.
-        let at = (bits.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 56) as usize;
-        MEMO.with(|memo| {
-            let slot = &mut memo.borrow_mut()[at];
-            if slot.bits != bits {
-                let (sin, cos) = rot.sin_cos();
-                *slot = Slot {
-                    bits,
-                    sin,
-                    cos,
-                    ..EMPTY
-                };
-            }
-            f(slot)
-        })
+        let cell = &memo[(bits.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 56) as usize];
+        let slot = cell.get();
+        if slot.bits == bits {
+            return (slot, cell, false);
+        }
+        let (sin, cos) = rot.sin_cos();
+        let filled = Slot {
+            bits,
+            sin,
+            cos,
+            ..EMPTY
+        };
+        (filled, cell, true)
     }
 
     #[inline(always)]
     pub fn sin_cos(rot: f64) -> (f64, f64) {
-        with_slot(rot, |slot| (slot.sin, slot.cos))
+        MEMO.with(|memo| {
+            let (slot, cell, filled) = slot(memo, rot);
+            if filled {
+                cell.set(slot);
+            }
+            (slot.sin, slot.cos)
+        })
     }
 
     /// [`super::lowest_offset`] at `rot`, remembered.
@@ -492,10 +499,12 @@ mod trig {
     // call to libm would crowd the flight loop's registers.
     #[inline(never)]
     pub fn lowest_at(scale: f64, rot: f64) -> f64 {
-        with_slot(rot, |slot| {
-            if slot.scale != Some(scale.to_bits()) {
+        MEMO.with(|memo| {
+            let (mut slot, cell, filled) = slot(memo, rot);
+            if filled || slot.scale != Some(scale.to_bits()) {
                 slot.low = super::lowest_offset(scale, slot.sin, slot.cos);
                 slot.scale = Some(scale.to_bits());
+                cell.set(slot);
             }
             slot.low
         })
