@@ -1,6 +1,7 @@
 //! `lander experiment FILE.toml`: the paper's experiment or any other, on
-//! all cores or on workers, with a progress bar per running trial, written
-//! trial by trial so that `--resume` can finish an interrupted run.
+//! all cores or on workers, with a progress bar per running GA trial and
+//! one for the Q(λ) trials, written trial by trial so that `--resume` can
+//! finish an interrupted run.
 
 use super::transport::TransportArgs;
 use super::watch::{trial_label, Watched};

@@ -1,7 +1,8 @@
 //! `lander sweep FILE.toml`: one experiment under many settings, all trials
 //! as one workload on all cores or on workers, with a bar for the sweep,
-//! one per setting under way and one per running trial; written trial by
-//! trial so that `--resume` can finish an interrupted sweep.
+//! one per setting under way, one per running GA trial and one for the
+//! Q(λ) trials; written trial by trial so that `--resume` can finish an
+//! interrupted sweep.
 
 use super::experiment::{in_flight, say_busy, style, Training};
 use super::transport::TransportArgs;
