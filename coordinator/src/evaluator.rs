@@ -229,6 +229,17 @@ pub trait Evaluator {
     }
 }
 
+/// The threads on which a step of `batches` generations is best bred
+/// before it flies, all of them at once, a trial per thread: the
+/// evaluator's own ([`Evaluator::threads`]), where the step holds more than
+/// one. `None` where the evaluator breeds better itself: a single trial's
+/// generation in-process is flown as it is bred, the other threads flying
+/// each genome as the first breeds the next (`pipeline`), and a pool
+/// breeds each batch as it hands it out.
+pub fn breeds_first(evaluator: &dyn Evaluator, batches: usize) -> Option<&rayon::ThreadPool> {
+    evaluator.threads().filter(|_| batches > 1)
+}
+
 /// Runs Q(λ) trials, one per job; a learner is sequential within a trial,
 /// so trials are the unit of parallelism.
 pub trait Trainer {

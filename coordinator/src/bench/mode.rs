@@ -4,7 +4,7 @@
 
 use super::figures::{overheads, percentile, Breakdown};
 use super::Workload;
-use crate::evaluator::{Batch, EvalError, Evaluator, InProcess};
+use crate::evaluator::{breeds_first, Batch, EvalError, Evaluator, InProcess};
 use crate::ga::Genome;
 use crate::pool::{ChunkTiming, IpcPool, ZenohPool};
 use crate::trial::offspring;
@@ -292,7 +292,7 @@ fn step(
     // once on the evaluation threads, then flown together; over a pool,
     // each bred as it is handed out. A single trial in flight is bred as
     // `lander run` breeds it, by the evaluator.
-    if let (true, Some(threads)) = (batches.len() > 1, evaluator.threads()) {
+    if let Some(threads) = breeds_first(evaluator, batches.len()) {
         threads.install(|| {
             batches.par_iter_mut().for_each(|b| {
                 b.bred_genomes();

@@ -6,7 +6,7 @@
 
 use super::file::Experiment;
 use crate::config::RunConfig;
-use crate::evaluator::{Backend, EvalError, Evaluator};
+use crate::evaluator::{breeds_first, Backend, EvalError, Evaluator};
 use crate::trial::{Generation, TrialError, TrialResult, TrialRun};
 use lander_model::Method;
 use lander_model::TrainJob;
@@ -164,10 +164,11 @@ fn evolve<K: Copy + Send>(
         }
         let batches = running.iter_mut().map(|r| r.run.batch()).collect();
         let evaluations = backend.evaluate_many(batches)?;
-        let generations = match backend.threads() {
+        let generations = match breeds_first(backend, running.len()) {
             Some(threads) => threads.install(|| accept_and_breed(&mut running, &evaluations)),
-            // A pool breeds each trial's next generation as it hands it
-            // out, its workers flying the first chunks meanwhile.
+            // A single trial's next generation is bred as it flies, and a
+            // pool breeds each trial's as it hands it out, its workers
+            // flying the first chunks meanwhile.
             None => running
                 .iter_mut()
                 .zip(&evaluations)
