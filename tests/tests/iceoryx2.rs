@@ -251,16 +251,29 @@ fn the_coordinator_flies_a_share_only_where_told() {
         args.extend(["--config", &cfg, "--workers", &workers]);
         args.extend(["--coordinator-share", share, "--metrics", &addr]);
         let child = start(&iox, dir.path(), &args);
+        // A metric summed over its labels, 0 where it is not served yet.
         let counter = |name: &str| -> f64 {
             let text = http_get(&addr, "/metrics").unwrap_or_default();
             text.lines()
-                .find_map(|l| l.strip_prefix(&format!("{name} ")))
-                .and_then(|v| v.parse().ok())
-                .unwrap_or(0.0)
+                .filter(|l| {
+                    l.strip_prefix(name)
+                        .is_some_and(|rest| rest.starts_with([' ', '{']))
+                })
+                .filter_map(|l| l.rsplit(' ').next()?.parse::<f64>().ok())
+                .sum()
         };
-        let log = dir.path().join("generations.jsonl");
+        // The coordinator stands in only once the worker beside it has
+        // joined, which on a loaded host may take longer than a few
+        // generations: count from there.
+        let all = workers.parse::<f64>().unwrap();
         assert!(
-            wait_until(60, || lines_in(&log) >= 20),
+            wait_until(60, || counter("lander_workers_connected") >= all),
+            "the workers did not join"
+        );
+        let log = dir.path().join("generations.jsonl");
+        let joined = lines_in(&log);
+        assert!(
+            wait_until(60, || lines_in(&log) >= joined + 20),
             "the run did not get going"
         );
         let counts = (
