@@ -148,6 +148,23 @@ pub fn ranking(fitness: &[f64]) -> Vec<usize> {
     order
 }
 
+/// The first `k` of [`ranking`]: the `k` best, best first, ties in
+/// population order. Chosen without ordering the rest, which a generation
+/// waits for between flying one generation and breeding the next.
+pub fn elites(fitness: &[f64], k: usize) -> Vec<usize> {
+    // Ties broken by index make the order total, so the `k` chosen and
+    // their order are those of the stable sort.
+    let better = |&a: &usize, &b: &usize| fitness[b].total_cmp(&fitness[a]).then(a.cmp(&b));
+    let mut order: Vec<usize> = (0..fitness.len()).collect();
+    let k = k.min(order.len());
+    if k < order.len() {
+        order.select_nth_unstable_by(k, better);
+        order.truncate(k);
+    }
+    order.sort_unstable_by(better);
+    order
+}
+
 /// A roulette wheel over fitness: index `i` comes up with probability
 /// `fitness[i] / Σ fitness`. Negative fitness counts as zero; a wheel with
 /// nothing on it picks uniformly.
@@ -246,7 +263,7 @@ pub struct Offspring<'a, R> {
 impl<'a, R: Rng> Offspring<'a, R> {
     /// The generation after `parents`, scored `fitness`, drawing from `rng`.
     pub fn new(p: &'a GaParams, parents: &'a [Genome], fitness: &[f64], rng: R) -> Self {
-        let elites: Vec<usize> = ranking(fitness).into_iter().take(p.elites).collect();
+        let elites = elites(fitness, p.elites);
         Offspring {
             p,
             parents,

@@ -141,6 +141,25 @@ fn ranking_is_best_first_and_stable_on_ties() {
 }
 
 proptest! {
+    /// Ties, -0.0 beside 0.0, infinities and NaN included.
+    #[test]
+    fn elites_are_the_head_of_the_ranking(
+        fitness in proptest::collection::vec(
+            prop_oneof![
+                (0u8..4).prop_map(f64::from),
+                Just(-0.0), Just(f64::INFINITY), Just(f64::NEG_INFINITY), Just(f64::NAN),
+                -1e6f64..1e6,
+            ],
+            0..120,
+        ),
+        k in 0usize..130,
+    ) {
+        let head: Vec<usize> = ranking(&fitness).into_iter().take(k).collect();
+        prop_assert_eq!(elites(&fitness, k), head);
+    }
+}
+
+proptest! {
     #![proptest_config(ProptestConfig::with_cases(200))]
 
     #[test]
