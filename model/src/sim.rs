@@ -500,8 +500,9 @@ mod trig {
     #[inline(never)]
     pub fn lowest_at(scale: f64, rot: f64) -> f64 {
         MEMO.with(|memo| {
-            let (mut slot, cell, filled) = slot(memo, rot);
-            if filled || slot.scale != Some(scale.to_bits()) {
+            // A slot just filled holds no lowest point (`scale` is `None`).
+            let (mut slot, cell, _) = slot(memo, rot);
+            if slot.scale != Some(scale.to_bits()) {
                 slot.low = super::lowest_offset(scale, slot.sin, slot.cos);
                 slot.scale = Some(scale.to_bits());
                 cell.set(slot);
