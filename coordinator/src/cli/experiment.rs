@@ -107,7 +107,7 @@ fn experiment_watched(
             bars,
             overall: &overall,
             running: HashMap::new(),
-            training: Training::new("         "),
+            training: Training::new("{prefix:>18}"),
             store: &store,
             records: &mut records,
         },
@@ -175,29 +175,31 @@ pub(super) fn style(template: &str) -> ProgressStyle {
         .progress_chars("=> ")
 }
 
-/// The Q(λ) trials' one bar, `indent` the style's text before its label.
+/// The Q(λ) trials' one bar, labelled `qlearning` by `head`, the template
+/// of the trial bars' label beside it, so that the two line up.
 /// They train as one batch, a trial per evaluation thread or worker at a
 /// time: a bar per trial would show every one of them training while
 /// most wait, and a sweep's hundreds would overrun the terminal. The
 /// spinner turns on its own, since a trial says nothing until it ends.
 pub(super) struct Training {
-    indent: &'static str,
+    head: &'static str,
     bar: Option<ProgressBar>,
 }
 
 impl Training {
-    pub(super) fn new(indent: &'static str) -> Training {
-        Training { indent, bar: None }
+    pub(super) fn new(head: &'static str) -> Training {
+        Training { head, bar: None }
     }
 
     /// One more trial to train, shown under `bars`.
     pub(super) fn started(&mut self, bars: &MultiProgress) {
-        let indent = self.indent;
+        let head = self.head;
         let bar = self.bar.get_or_insert_with(|| {
             let bar = bars.add(ProgressBar::new(0));
             bar.set_style(style(&format!(
-                "{indent}qlearning {{spinner}} [{{bar:20}}] {{pos}}/{{len}} trials trained"
+                "{head} {{spinner}} [{{bar:20}}] {{pos}}/{{len}} trials trained"
             )));
+            bar.set_prefix("qlearning");
             bar.enable_steady_tick(Duration::from_millis(120));
             bar
         });

@@ -134,7 +134,7 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
             overall: &overall,
             settings: HashMap::new(),
             running: HashMap::new(),
-            training: Training::new("    "),
+            training: Training::new("    {prefix}"),
             store: &store,
             records: &mut records,
         },
