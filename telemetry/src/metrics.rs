@@ -160,7 +160,7 @@ impl CoordinatorMetrics {
             chunks_flown_here: counter(
                 &r,
                 "lander_chunks_flown_here_total",
-                "Chunks the coordinator flew itself: a share of its own, or a single trial's share of the worker on its CPU.",
+                "Chunks the coordinator flew itself: a share of its own, or the share of the worker on its CPU.",
             ),
             chunks_redispatched: counter_vec(
                 &r,

@@ -26,8 +26,8 @@ pub enum TransportArg {
 
 /// Whether the coordinator flies a share of each generation itself,
 /// between answers, rather than sleeping while its workers fly. Unless
-/// `Never`, it also flies a single trial's share of the worker on its own
-/// CPU (`PoolOptions::stand_in`).
+/// `Never`, it also flies the share of the worker on its own CPU
+/// (`PoolOptions::stand_in`).
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CoordinatorShare {
     /// Where spawned workers leave a CPU idle: fewer of them than CPUs.
@@ -50,8 +50,8 @@ impl CoordinatorShare {
         }
     }
 
-    /// Whether the coordinator flies a single trial's share of the worker
-    /// on its CPU (`PoolOptions::stand_in`): unless it never flies.
+    /// Whether the coordinator flies the share of the worker on its CPU
+    /// (`PoolOptions::stand_in`): unless it never flies.
     pub fn stands_in(self) -> bool {
         self != CoordinatorShare::Never
     }
@@ -118,8 +118,8 @@ pub struct TransportArgs {
     verify: Option<f64>,
     /// Whether the coordinator flies queued chunks itself between answers
     /// instead of sleeping [default: auto: where the spawned workers leave
-    /// a CPU idle, and a single trial's share of the worker on the
-    /// coordinator's CPU; never: not even that].
+    /// a CPU idle, and the share of the worker on the coordinator's CPU;
+    /// never: not even that].
     #[arg(long, value_enum, value_name = "WHEN")]
     coordinator_share: Option<CoordinatorShare>,
     #[command(flatten)]

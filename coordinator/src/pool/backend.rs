@@ -248,11 +248,12 @@ impl<T: Transport> Evaluator for Pool<T> {
             differs: &|i, truth, answer| verify::differs(&chunks[i], truth, answer),
             shares: true,
         };
-        // A single trial's generation: the coordinator flies the share of
-        // the worker on its CPU itself, sparing the hand-over and the
-        // wake-ups. With --verify every worker keeps its share, so that
-        // another can check its answers.
-        self.stands_in = self.opts.stand_in && batches.len() == 1 && self.opts.verify == 0.0;
+        // The coordinator flies the share of the worker on its CPU itself,
+        // sparing the hand-over and the wake-ups: that worker could start
+        // only once the coordinator had bred the step and slept. With
+        // --verify every worker keeps its share, so that another can check
+        // its answers.
+        self.stands_in = self.opts.stand_in && self.opts.verify == 0.0;
         let results = self.run_checked_after(
             &chunks,
             &early.sent,

@@ -9,8 +9,8 @@
 //! busy one (`Pool::rebalance`). The pool sleeps on its `wake` event
 //! between results, never spinning; where it has a CPU that would
 //! otherwise idle ([`PoolOptions::share`]), it first flies a queued chunk
-//! itself (`Pool::fly_a_share`); in a single trial's generation it flies
-//! so the share of the worker on its own CPU, which is sent nothing
+//! itself (`Pool::fly_a_share`); it flies so the share of the worker on
+//! its own CPU, which is sent no evaluation chunk
 //! ([`PoolOptions::stand_in`]). A chunk whose worker dies (its process
 //! exits, its node is found dead, or its server disconnects) or misses its
 //! deadline goes back in the queue; a late duplicate is dropped
@@ -107,10 +107,10 @@ pub struct PoolOptions {
     /// worker: for when a CPU of its own would otherwise idle
     /// (`schedule.rs`, `Pool::fly_a_share`).
     pub share: bool,
-    /// In a step of a single trial's generation, the coordinator flies
-    /// the share of the worker on its CPU itself, rather than hand it
-    /// chunks and wake it there (`Pool::stands_in_for`): the worker beside
-    /// a pinned coordinator, with a worker on every CPU.
+    /// In a step of evaluation, the coordinator flies the share of the
+    /// worker on its CPU itself, rather than hand it chunks and wake it
+    /// there (`Pool::stands_in_for`): the worker beside a pinned
+    /// coordinator, with a worker on every CPU.
     pub stand_in: bool,
     /// Asked to stop, the pool ends the run at its next look.
     pub stop: Stop,
@@ -144,8 +144,11 @@ pub struct Pool<T: Transport> {
     beside: Option<usize>,
     /// The CPUs this process may run on, at least one.
     cpus: usize,
-    /// During the step under way, the coordinator flies the chunks that
-    /// would go to the worker beside it (`Pool::stands_in_for`).
+    /// During the evaluation step under way, the coordinator flies the
+    /// chunks that would go to the worker beside it
+    /// (`Pool::stands_in_for`). Not while training: a Q(λ) leg flown here
+    /// would keep the coordinator from the answers for as long as it
+    /// lasts.
     stands_in: bool,
     /// The most episodes of a Q(λ) trial one chunk flies
     /// ([`lander_protocol::wire::MOST_EPISODES_PER_CHUNK`]; fewer in tests).

@@ -461,8 +461,8 @@ impl<T: Transport> Pool<T> {
 
     /// Whether the coordinator flies, in place of link `i`, the chunks
     /// that would go to it: `i` is the worker on the coordinator's CPU, in
-    /// a step of a single trial's generation (`Pool::stands_in`), and
-    /// another worker is there to fly the rest. The coordinator flies
+    /// a step of evaluation (`Pool::stands_in`), and another worker is
+    /// there to fly the rest. The coordinator flies
     /// between answers as with a share of its own, with no chunk to hand
     /// over and no worker to wake on that CPU; the worker sleeps.
     fn stands_in_for(&self, i: usize) -> bool {

@@ -116,29 +116,43 @@ fn on_every_cpu(dir: &std::path::Path) -> Pool<Nowhere> {
 }
 
 #[test]
-fn the_coordinator_flies_a_single_trial_in_place_of_the_worker_on_its_cpu() {
+fn the_coordinator_flies_in_place_of_the_worker_on_its_cpu() {
     let dir = tempfile::tempdir().unwrap();
     let mut pool = on_every_cpu(dir.path());
     let others = pool.links.len() - 1;
-    // One trial's generation: the worker beside the coordinator gets
-    // nothing, the coordinator flies what it would have, and the results
-    // are in-process's.
+    // One trial's generation, then several trials' at once: the worker
+    // beside the coordinator gets nothing, the coordinator flies what it
+    // would have, and the results are in-process's.
     let single = step_of(&mut pool, 1);
     assert!(single == step_of(&mut InProcess::new(2).unwrap(), 1));
+    let several = step(&mut pool);
+    assert!(several == step(&mut InProcess::new(2).unwrap()));
     let beside = pool.links.last().unwrap().sent.len();
     if others > 0 {
         assert_eq!(beside, 0, "the coordinator's neighbour was sent chunks");
         assert!(pool.flown_here() > 0, "the coordinator flew nothing");
+        assert!(
+            pool.links[..others].iter().all(|l| !l.sent.is_empty()),
+            "a worker not beside the coordinator was sent nothing"
+        );
     } else {
         // Alone, that worker flies everything.
         assert!(beside > 0);
     }
-    // Several trials' generations: every worker flies its share.
+    assert_eq!(pool.children.stop_all(&[]), 0);
+}
+
+#[test]
+fn without_the_stand_in_every_worker_flies_its_share() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut pool = on_every_cpu(dir.path());
+    pool.opts.stand_in = false;
     let several = step(&mut pool);
     assert!(several == step(&mut InProcess::new(2).unwrap()));
     assert!(
         pool.links.iter().all(|l| !l.sent.is_empty()),
         "a worker sent nothing"
     );
+    assert_eq!(pool.flown_here(), 0);
     assert_eq!(pool.children.stop_all(&[]), 0);
 }
