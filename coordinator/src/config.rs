@@ -256,6 +256,12 @@ mod tests {
             ("[world]\nthrust = 1e308\nmass = 1e-300", "world.thrust"),
             ("[world]\nmass = 1e-9", "world.thrust"),
             ("[world]\ngravity = -1e9", "world.gravity"),
+            // rot turned to NaN, written out as nulls.
+            (
+                "[world]\nrotation_step = 1.7e308",
+                "world.rotation_step must be from -2π to 2π",
+            ),
+            ("[world]\nrotation_step = -6.3", "world.rotation_step"),
             (
                 "[world]\ngravity = -1.63",
                 "world.gravity must not be negative",

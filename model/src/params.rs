@@ -78,7 +78,18 @@ impl World {
         non_negative("world.thrust", w.thrust)?;
         positive("world.mass", w.mass)?;
         positive("world.ticks_per_second", w.ticks_per_second)?;
+        // At most a full turn a tick, either way: `rot` then stays within
+        // a few million radians over max_ticks, where beyond it turns to
+        // infinities and NaN, written out as nulls.
         finite("world.rotation_step", w.rotation_step)?;
+        check(
+            "world.rotation_step",
+            w.rotation_step.abs() <= std::f64::consts::TAU,
+            format_args!(
+                "must be from -2π to 2π radians, at most a full turn a tick (got {:?})",
+                w.rotation_step
+            ),
+        )?;
         finite("world.start_drop", w.start_drop)?;
         finite("world.ground_y", w.ground_y)?;
         positive("world.hull_scale", w.hull_scale)?;

@@ -206,6 +206,31 @@ fn the_tick_guard_ends_an_endless_flight_as_a_crash() {
 }
 
 #[test]
+fn the_largest_rotation_steps_keep_every_number_finite() {
+    // A million ticks rotating the wrong way round at a full turn a tick,
+    // which no wrap catches: the state stays finite.
+    for step in [std::f64::consts::TAU, -std::f64::consts::TAU] {
+        let mut e = env(200.0, 100.0);
+        e.world.gravity = 0.0;
+        e.world.rotation_step = step;
+        e.world.max_ticks = 1_000_000;
+        e.world.check().unwrap();
+        for action in [Action::RotateLeft, Action::RotateRight] {
+            let o = fly(&e, &[Gene::new(action, 1)]);
+            let s = o.state;
+            assert!(
+                [s.x, s.y, s.vx, s.vy, s.rot, o.fitness]
+                    .iter()
+                    .all(|v| v.is_finite()),
+                "{step} {action:?}: {o:?}"
+            );
+        }
+        e.world.rotation_step = step * 1.0001;
+        assert!(e.world.check().is_err());
+    }
+}
+
+#[test]
 fn n_counts_decoded_ticks_only_until_touchdown() {
     let e = env(200.0, 100.0);
     // Full thrust upside down drives the lander into the ground within 30 ticks... of 50·30.
