@@ -350,6 +350,15 @@ fn bad_experiment_files_are_named() {
     let none = run_experiment(&file, &dir.path().join("never"), &["--in-flight", "0"]);
     assert!(!none.status.success());
     assert!(stderr(&none).contains("--in-flight"), "{}", stderr(&none));
+    let many = run_experiment(&file, &dir.path().join("never"), &["--threads", "5000"]);
+    assert!(
+        stderr(&many).contains("5000 evaluation threads"),
+        "{}",
+        stderr(&many)
+    );
+    // Refused before the folder is written: the corrected command would
+    // otherwise find an experiment it was not asked to resume.
+    assert!(!dir.path().join("never").exists());
     // A run's or a sweep's folder is refused, its files left as they were.
     for marker in ["best.json", "sweep.json"] {
         let theirs = dir.path().join(marker);

@@ -1118,6 +1118,9 @@ fn a_learner_too_large_to_travel_between_legs_is_refused_up_front() {
         !said.contains("panicked") && !said.contains("--resume"),
         "{said}"
     );
+    // Refused before the folder is touched: nothing to resume or clear
+    // before the corrected command.
+    assert!(!dir.path().join("run").exists());
 
     let exp = dir.path().join("exp.toml");
     fs::write(
@@ -1140,6 +1143,9 @@ fn a_learner_too_large_to_travel_between_legs_is_refused_up_front() {
     assert!(said.contains("qlearning.memory_bits = 24"), "{said}");
     assert!(said.contains("legs"), "{said}");
     assert!(!said.contains("--resume"), "a refusal, not a stop: {said}");
-    let trials = fs::read_dir(out.join("trials")).map_or(0, |d| d.count());
-    assert_eq!(trials, 0, "trials run before the refusal");
+    assert!(
+        !out.exists(),
+        "the refused experiment wrote {}",
+        out.display()
+    );
 }

@@ -337,6 +337,22 @@ fn bad_sweep_files_are_refused_naming_the_setting_and_key() {
     let missing = sweep("/nonexistent/sweep.toml", &never, &[]);
     assert!(!missing.status.success());
     assert!(stderr(&missing).contains("/nonexistent/sweep.toml"));
+    // Bad flags, refused before the folder is written: the corrected
+    // command would otherwise find a sweep it was not asked to resume.
+    let file = write_file(
+        dir.path(),
+        "good.toml",
+        &format!("{BASE}[grids.g]\n\"guided.epsilon\" = [0.1]\n"),
+    );
+    for (flags, said) in [
+        (&["--threads", "5000"][..], "5000 evaluation threads"),
+        (&["--in-flight", "0"], "--in-flight"),
+    ] {
+        let out = sweep(&file, &never, flags);
+        assert!(!out.status.success(), "{flags:?}");
+        assert!(stderr(&out).contains(said), "{}", stderr(&out));
+        assert!(!never.exists(), "{flags:?} wrote {}", never.display());
+    }
 }
 
 #[test]

@@ -74,14 +74,24 @@ fn experiment_watched(
         .clone()
         .unwrap_or_else(|| PathBuf::from("results").join(&exp.name));
     super::out_folder(&out)?;
-    let store = Store::open(&out, &exp, args.resume)?;
-    watch.begin(&out, "experiment")?;
+    // Everything is checked before the folder is written: one refused
+    // leaves nothing that would refuse the corrected command.
+    let store = Store::at(&out, &exp, args.resume)?;
     let mut records = store.finished()?;
     let done: HashSet<TrialId> = records.iter().map(TrialId::of).collect();
     let todo: Vec<TrialId> = trials(&exp)
         .into_iter()
         .filter(|t| !done.contains(t))
         .collect();
+    let todo = experiment_tasks(&exp, &todo);
+    let since = Instant::now();
+    let mut backend = args
+        .transport
+        .evaluator(args.threads, &watch.telemetry, stop)?;
+    let in_flight = in_flight(args.in_flight, 4, args.transport.workers, args.threads)?;
+    can_run(&todo, backend.as_ref())?;
+    store.create()?;
+    watch.begin(&out, "experiment")?;
 
     let bars = lander_telemetry::log::bars();
     let overall = bars.add(ProgressBar::new(exp.trial_count()));
@@ -97,11 +107,6 @@ fn experiment_watched(
             todo.len()
         ));
     }
-    let since = Instant::now();
-    let mut backend = args
-        .transport
-        .evaluator(args.threads, &watch.telemetry, stop)?;
-    let in_flight = in_flight(args.in_flight, 4, args.transport.workers, args.threads)?;
     let mut progress = Watched {
         inner: Bars {
             bars,
@@ -115,8 +120,6 @@ fn experiment_watched(
         label: &|_, cfg: &RunConfig| trial_label(None, cfg),
         labels: HashMap::new(),
     };
-    let todo = experiment_tasks(&exp, &todo);
-    can_run(&todo, backend.as_ref())?;
     run(&todo, backend.as_mut(), in_flight, &mut progress).with_context(|| {
         let again = super::resume_command("experiment", &args.file, &out, args.trials, false);
         format!("the experiment stopped; `{again}` finishes it")

@@ -181,12 +181,7 @@ fn on_workers(
     loop {
         let start = from.as_ref().map_or(0, |s| s.episodes);
         bar.set_position(u64::from(start));
-        let until = leg_end(start, every, cfg.qlearning.episodes);
-        let job = TrainJob {
-            from: from.take(),
-            until,
-            ..TrainJob::whole(cfg.env(0), cfg.guided, cfg.qlearning, key(cfg))
-        };
+        let job = leg(cfg, from.take(), every);
         // Refused before it starts, a leg leaves nothing to resume.
         pool.can_train(std::slice::from_ref(&job))?;
         let result = pool
@@ -213,6 +208,33 @@ fn on_workers(
                 return Ok(result.training);
             }
         }
+    }
+}
+
+/// Refuses a trial whose first leg from `from` (its start, where `None`)
+/// `pool` could not train, such as one whose state cannot travel: asked
+/// before the run's folder is touched, so that a refused run leaves
+/// nothing behind to resume or to clear.
+pub fn can_start(
+    cfg: &RunConfig,
+    pool: Option<&dyn Backend>,
+    from: Option<&LearnState>,
+    every: u64,
+) -> anyhow::Result<()> {
+    if let Some(pool) = pool {
+        pool.can_train(std::slice::from_ref(&leg(cfg, from.cloned(), every)))?;
+    }
+    Ok(())
+}
+
+/// The trial's leg from `from` (its start, where `None`), as it goes to
+/// the pool: to the next checkpoint ([`leg_end`]).
+fn leg(cfg: &RunConfig, from: Option<LearnState>, every: u64) -> TrainJob {
+    let start = from.as_ref().map_or(0, |s| s.episodes);
+    TrainJob {
+        from,
+        until: leg_end(start, every, cfg.qlearning.episodes),
+        ..TrainJob::whole(cfg.env(0), cfg.guided, cfg.qlearning, key(cfg))
     }
 }
 

@@ -137,9 +137,10 @@ fn start(args: &RunArgs, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
     });
     if cfg.method == Method::Qlearning {
         let pool = args.transport.pool(&watch.telemetry, stop)?;
+        let every = args.checkpoint_every(cfg.method);
+        super::learning::can_start(&cfg, pool.as_deref(), None, every)?;
         prepare(&out)?;
         watch.begin(&out, "run")?;
-        let every = args.checkpoint_every(cfg.method);
         return counted(watch, &cfg, || {
             super::learning::learn(&cfg, &out, args.json, pool, every, stop)
         });
@@ -173,8 +174,9 @@ fn resume(args: &RunArgs, dir: &Path, watch: &Watch, stop: &Stop) -> anyhow::Res
         Saved::Evolving(state) => state,
         Saved::Learning(state) => {
             let pool = args.transport.pool(&watch.telemetry, stop)?;
-            watch.begin(dir, "run --resume")?;
             let every = args.checkpoint_every(cfg.method);
+            super::learning::can_start(&cfg, pool.as_deref(), Some(&state), every)?;
+            watch.begin(dir, "run --resume")?;
             return counted(watch, &cfg, || {
                 super::learning::resume(&cfg, dir, args.json, &state, pool, every, stop)
             });

@@ -81,8 +81,9 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
         .clone()
         .unwrap_or_else(|| PathBuf::from("results").join(&sweep.base.name));
     super::out_folder(&out)?;
-    let store = SweepStore::open(&out, &sweep, args.resume)?;
-    watch.begin(&out, "sweep")?;
+    // Everything is checked before the folder is written: one refused
+    // leaves nothing that would refuse the corrected command.
+    let store = SweepStore::at(&out, &sweep, args.resume)?;
     let mut records = store
         .settings
         .iter()
@@ -95,6 +96,19 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
         .map(|s| s.experiment.trial_count() as usize)
         .sum();
     let done = total - plan.trials();
+    let since = Instant::now();
+    let mut backend = args
+        .transport
+        .evaluator(args.threads, &watch.telemetry, stop)?;
+    let in_flight = in_flight(
+        args.in_flight,
+        IN_FLIGHT_PER_WORKER,
+        args.transport.workers,
+        args.threads,
+    )?;
+    lander_coordinator::experiment::can_run(&plan.tasks, backend.as_ref())?;
+    store.create()?;
+    watch.begin(&out, "sweep")?;
 
     let bars = lander_telemetry::log::bars();
     let overall = bars.add(ProgressBar::new(total as u64));
@@ -111,16 +125,6 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
             plan.tasks.len()
         ));
     }
-    let since = Instant::now();
-    let mut backend = args
-        .transport
-        .evaluator(args.threads, &watch.telemetry, stop)?;
-    let in_flight = in_flight(
-        args.in_flight,
-        IN_FLIGHT_PER_WORKER,
-        args.transport.workers,
-        args.threads,
-    )?;
     // A trial that settings share is counted under its first setting.
     let label = |task: usize, cfg: &RunConfig| {
         let setting = plan.groups[task][0].setting;
@@ -142,7 +146,6 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
         label: &label,
         labels: HashMap::new(),
     };
-    lander_coordinator::experiment::can_run(&plan.tasks, backend.as_ref())?;
     lander_coordinator::experiment::run(&plan.tasks, backend.as_mut(), in_flight, &mut progress)
         .with_context(|| {
             let again =

@@ -39,8 +39,20 @@ pub struct Store {
 
 impl Store {
     /// Opens `dir` for `exp`: a new folder, or with `resume` one that an
-    /// interrupted run of the same experiment left.
+    /// interrupted run of the same experiment left ([`Store::at`], then
+    /// [`Store::create`]).
     pub fn open(dir: &Path, exp: &Experiment, resume: bool) -> Result<Store, StoreError> {
+        let store = Store::at(dir, exp, resume)?;
+        store.create()?;
+        Ok(store)
+    }
+
+    /// The store of `exp` in `dir`, checked as [`Store::open`] checks it
+    /// but not yet written: a command makes its other checks before it
+    /// calls [`Store::create`], so that one refused leaves no folder that
+    /// would refuse the corrected command. [`Store::finished`] reads
+    /// nothing from a folder not yet created.
+    pub fn at(dir: &Path, exp: &Experiment, resume: bool) -> Result<Store, StoreError> {
         let store = Store {
             dir: dir.to_path_buf(),
             expects: Some(exp.clone()),
@@ -53,19 +65,28 @@ impl Store {
             (true, true) => store.check_same(&definition, exp)?,
             (false, false) => {}
         }
+        Ok(store)
+    }
+
+    /// Creates the folder and writes the experiment's definition into it.
+    pub fn create(&self) -> Result<(), StoreError> {
         // The folder first, so that an error names it rather than a folder
         // inside it.
-        for folder in [dir.to_path_buf(), store.trials_dir()] {
+        for folder in [self.dir.clone(), self.trials_dir()] {
             std::fs::create_dir_all(&folder).map_err(|e| StoreError::Io {
                 message: format!("cannot create the folder: {e}"),
                 path: folder,
             })?;
         }
+        let definition = self.dir.join(EXPERIMENT);
+        let exp = self.expects.as_ref().ok_or_else(|| StoreError::Io {
+            path: definition.clone(),
+            message: "a folder opened to be read is not written".into(),
+        })?;
         write_json(&definition, exp).map_err(|e| StoreError::Io {
             path: definition.clone(),
             message: e.cause.to_string(),
-        })?;
-        Ok(store)
+        })
     }
 
     /// A folder to read finished trials from, changing nothing in it.
@@ -113,12 +134,19 @@ impl Store {
         })
     }
 
-    /// The trials finished so far, in file-name order. A temporary file
-    /// left by an interrupted write is removed.
+    /// The trials finished so far, in file-name order; none in a store not
+    /// yet created. A temporary file left by an interrupted write is
+    /// removed.
     pub fn finished(&self) -> Result<Vec<TrialRecord>, StoreError> {
         let dir = self.trials_dir();
-        let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
-            .map_err(io(&dir))?
+        let listing = match std::fs::read_dir(&dir) {
+            // Not yet created (`Store::at`): nothing finished.
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound && self.expects.is_some() => {
+                return Ok(Vec::new())
+            }
+            listing => listing.map_err(io(&dir))?,
+        };
+        let mut paths: Vec<PathBuf> = listing
             .map(|e| e.map(|e| e.path()).map_err(io(&dir)))
             .collect::<Result<_, _>>()?;
         paths.sort();

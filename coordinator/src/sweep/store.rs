@@ -29,13 +29,24 @@ pub enum SweepStoreError {
 /// order.
 pub struct SweepStore {
     dir: PathBuf,
+    /// The sweep's definition, as `sweep.json` holds it.
+    definition: serde_json::Value,
     pub settings: Vec<Store>,
 }
 
 impl SweepStore {
     /// Opens `dir` for `sweep`: a new folder, or with `resume` one that an
-    /// interrupted run of the same sweep left.
+    /// interrupted run of the same sweep left ([`SweepStore::at`], then
+    /// [`SweepStore::create`]).
     pub fn open(dir: &Path, sweep: &Sweep, resume: bool) -> Result<SweepStore, SweepStoreError> {
+        let store = SweepStore::at(dir, sweep, resume)?;
+        store.create()?;
+        Ok(store)
+    }
+
+    /// The store of `sweep` in `dir`, checked as [`SweepStore::open`]
+    /// checks it but not yet written ([`Store::at`]).
+    pub fn at(dir: &Path, sweep: &Sweep, resume: bool) -> Result<SweepStore, SweepStoreError> {
         refuse_others(dir, Results::Sweep)?;
         let definition = dir.join(SWEEP);
         let fresh = serde_json::to_value(sweep.definition()).map_err(|e| SweepStoreError::Io {
@@ -48,14 +59,6 @@ impl SweepStore {
             (true, true) => check_same(dir, &definition, &fresh)?,
             (false, false) => {}
         }
-        std::fs::create_dir_all(dir).map_err(|e| SweepStoreError::Io {
-            path: dir.into(),
-            message: format!("cannot create the folder: {e}"),
-        })?;
-        write_json(&definition, &fresh).map_err(|e| SweepStoreError::Io {
-            path: definition.clone(),
-            message: e.cause.to_string(),
-        })?;
         let settings = sweep
             .settings
             .iter()
@@ -64,13 +67,32 @@ impl SweepStore {
                 // A setting whose first trial had not finished may have no
                 // folder yet.
                 let begun = at.join(EXPERIMENT).exists();
-                Store::open(&at, &s.experiment, resume && begun)
+                Store::at(&at, &s.experiment, resume && begun)
             })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(SweepStore {
             dir: dir.to_path_buf(),
+            definition: fresh,
             settings,
         })
+    }
+
+    /// Creates the folder, writes the sweep's definition into it, and
+    /// creates every setting's folder.
+    pub fn create(&self) -> Result<(), SweepStoreError> {
+        std::fs::create_dir_all(&self.dir).map_err(|e| SweepStoreError::Io {
+            path: self.dir.clone(),
+            message: format!("cannot create the folder: {e}"),
+        })?;
+        let definition = self.dir.join(SWEEP);
+        write_json(&definition, &self.definition).map_err(|e| SweepStoreError::Io {
+            path: definition.clone(),
+            message: e.cause.to_string(),
+        })?;
+        for setting in &self.settings {
+            setting.create()?;
+        }
+        Ok(())
     }
 
     pub fn dir(&self) -> &Path {
