@@ -8,6 +8,7 @@
 //!   iceoryx2 on this host or zenoh from any host.
 //! - [`bench`](mod@bench): the throughput comparison behind `lander bench`.
 //! - [`run_files`]: what a run writes: JSON lines, `best.json`, the summary.
+//! - [`folder_lock`]: one command at a time in an output folder.
 //! - [`checkpoint`]: `checkpoint.bin`, a run saved between generations.
 //! - [`experiment`]: many paired trials, resumable, with tables, plots and a report.
 //! - [`recording`]: genomes flown into Recordings for replays.
@@ -19,6 +20,7 @@ pub mod checkpoint;
 pub mod config;
 pub mod evaluator;
 pub mod experiment;
+pub mod folder_lock;
 pub mod ga;
 pub mod pool;
 pub mod recording;

@@ -419,6 +419,14 @@ fn a_run_replaces_an_earlier_runs_outputs_and_leaves_an_experiment_alone() {
         assert!(!dir.path().join(gone).exists(), "{gone} outlived its run");
     }
     assert!(dir.path().join("episodes.jsonl").exists());
+    // A finished run has nothing to resume, and says so.
+    let again = lander(&["run", "--resume", out]);
+    assert!(!again.status.success());
+    assert!(
+        stderr(&again).contains("the run there finished (it wrote summary.json"),
+        "{}",
+        stderr(&again)
+    );
 
     // A run into `dir` fails, naming `needle`.
     let refused_in = |dir: &std::path::Path, needle: &str| {
@@ -451,6 +459,14 @@ fn a_run_replaces_an_earlier_runs_outputs_and_leaves_an_experiment_alone() {
         fs::write(theirs.path().join(marker), "{}").unwrap();
         refused_in(theirs.path(), marker);
         assert!(!theirs.path().join("generations.jsonl").exists());
+        // Resumed as a run, it is named for what it is.
+        let resumed = lander(&["run", "--resume", theirs.path().to_str().unwrap()]);
+        assert!(!resumed.status.success());
+        assert!(
+            stderr(&resumed).contains(&format!("({marker}), not a run's")),
+            "{}",
+            stderr(&resumed)
+        );
     }
 }
 
@@ -480,6 +496,54 @@ fn ctrl_c_stops_an_in_process_q_learning_run_with_its_episodes_kept() {
     assert!(episodes.len() < 10_000_000);
     assert_eq!(episodes, (1..=episodes.len() as u64).collect::<Vec<_>>());
     assert!(!dir.path().join("summary.json").exists());
+}
+
+#[test]
+fn a_folder_in_use_is_refused_to_every_other_command_and_left_whole() {
+    use lander_tests::{binary, interrupt, lines_in, wait_until};
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let child = Command::new(binary("lander"))
+        .args(["run", "--method", "qlearning", "--episodes", "10000000"])
+        .args(["--out", out])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let log = dir.path().join("episodes.jsonl");
+    assert!(
+        wait_until(60, || lines_in(&log) > 0),
+        "no episode was written"
+    );
+    let elsewhere = tempfile::tempdir().unwrap();
+    let file = elsewhere.path().join("e.toml");
+    std::fs::write(&file, "name = \"e\"\ntrials = 1\nmethods = [\"ga\"]\n").unwrap();
+    let file = file.to_str().unwrap();
+    for args in [
+        &["run", "--out", out][..],
+        &["run", "--method", "qlearning", "--out", out],
+        &["run", "--resume", out],
+        &["experiment", file, "--out", out],
+    ] {
+        let other = lander(args);
+        assert!(!other.status.success(), "{args:?}");
+        let said = stderr(&other);
+        assert!(
+            said.contains(&format!("{out} is in use by another lander command")),
+            "{args:?}: {said}"
+        );
+    }
+    interrupt(child);
+    // The run's episodes are whole and in order, and it resumes.
+    let episodes = json_lines(&log).len() as u64;
+    let numbers: Vec<u64> = json_lines(&log)
+        .iter()
+        .map(|e| e["episode"].as_u64().unwrap())
+        .collect();
+    assert_eq!(numbers, (1..=episodes).collect::<Vec<_>>());
+    assert!(dir.path().join("checkpoint.bin").exists());
+    assert!(!dir.path().join("experiment.json").exists());
 }
 
 #[test]

@@ -76,7 +76,7 @@ fn experiment_watched(
     super::out_folder(&out)?;
     // Everything is checked before the folder is written: one refused
     // leaves nothing that would refuse the corrected command.
-    let store = Store::at(&out, &exp, args.resume)?;
+    let mut store = Store::at(&out, &exp, args.resume)?;
     let mut records = store.finished()?;
     let done: HashSet<TrialId> = records.iter().map(TrialId::of).collect();
     let todo: Vec<TrialId> = trials(&exp)

@@ -10,6 +10,7 @@ use lander_coordinator::checkpoint::{self, Checkpoint, Saved};
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::Backend;
 use lander_coordinator::experiment::store::first_difference;
+use lander_coordinator::folder_lock::FolderLock;
 use lander_coordinator::run_files::{
     clear_run_outputs, refuse_others, write_json, BestRecord, Results, RunLog, RunSummary, BEST,
     GENERATIONS,
@@ -139,7 +140,7 @@ fn start(args: &RunArgs, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
         let pool = args.transport.pool(&watch.telemetry, stop)?;
         let every = args.checkpoint_every(cfg.method);
         super::learning::can_start(&cfg, pool.as_deref(), None, every)?;
-        prepare(&out)?;
+        let _held = prepare(&out)?;
         watch.begin(&out, "run")?;
         return counted(watch, &cfg, || {
             super::learning::learn(&cfg, &out, args.json, pool, every, stop)
@@ -149,7 +150,7 @@ fn start(args: &RunArgs, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
     let evaluator = args
         .transport
         .evaluator(cfg.threads, &watch.telemetry, stop)?;
-    prepare(&out)?;
+    let _held = prepare(&out)?;
     watch.begin(&out, "run")?;
     let log = RunLog::create(&out, GENERATIONS)?;
     let run = TrialRun::new(&cfg)?;
@@ -161,6 +162,9 @@ fn start(args: &RunArgs, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
 /// `lander run --resume DIR`: the saved run, checked against the flags,
 /// its log cut back to the checkpoint, and on to the end.
 fn resume(args: &RunArgs, dir: &Path, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
+    // Held before the checkpoint is read: another command may be writing it.
+    let _held = FolderLock::hold_if_there(dir)?;
+    nothing_to_resume(dir)?;
     let saved = checkpoint::load(dir)?;
     let cfg = args.config_over(saved.config.clone())?;
     if let Some(field) = differs(&saved.config, &cfg) {
@@ -195,6 +199,38 @@ fn resume(args: &RunArgs, dir: &Path, watch: &Watch, stop: &Stop) -> anyhow::Res
     counted(watch, &cfg, || {
         evolve(args, &cfg, dir, run, log, evaluator, bar, watch)
     })
+}
+
+/// Says why a folder without a checkpoint has no run to resume, where its
+/// files tell: another command's results, or a run that finished (and
+/// removed its checkpoint). Otherwise reading the checkpoint says.
+fn nothing_to_resume(dir: &Path) -> anyhow::Result<()> {
+    if dir.join(checkpoint::FILE).exists() {
+        return Ok(());
+    }
+    if let Err(theirs) = refuse_others(dir, Results::Run) {
+        let command = match theirs.theirs {
+            Results::Sweep => "sweep",
+            _ => "experiment",
+        };
+        bail!(
+            "{} holds {}'s results ({}), not a run's; `lander {command} FILE --resume --out {}` \
+             finishes it",
+            dir.display(),
+            theirs.theirs.what(),
+            theirs.file,
+            dir.display()
+        );
+    }
+    if let Some(file) = [BEST, "summary.json"].iter().find(|f| dir.join(f).exists()) {
+        bail!(
+            "{}: the run there finished (it wrote {file} and removed its {}); there is nothing \
+             to resume",
+            dir.display(),
+            checkpoint::FILE
+        );
+    }
+    Ok(())
 }
 
 /// The first field where two configurations differ, thread counts aside
@@ -331,11 +367,12 @@ fn evolve(
 
 /// Readies `out` for this run, once the configuration and the workers are
 /// known to be good, so a run that cannot start leaves an earlier run's
-/// results alone. An experiment's or a sweep's folder is refused: their
-/// tables share names with a run's files (`generations.jsonl`,
-/// `summary.json`).
-fn prepare(out: &Path) -> anyhow::Result<()> {
+/// results alone, and holds it for the run ([`FolderLock`]). An
+/// experiment's or a sweep's folder is refused: their tables share names
+/// with a run's files (`generations.jsonl`, `summary.json`).
+fn prepare(out: &Path) -> anyhow::Result<FolderLock> {
     super::out_folder(out)?;
+    let held = FolderLock::hold_if_there(out)?;
     refuse_others(out, Results::Run)?;
     if out.join(checkpoint::FILE).exists() {
         bail!(
@@ -346,6 +383,10 @@ fn prepare(out: &Path) -> anyhow::Result<()> {
         );
     }
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let held = match held {
+        Some(held) => held,
+        None => FolderLock::hold(out)?,
+    };
     let removed = clear_run_outputs(out)?;
     if !removed.is_empty() {
         tracing::info!(
@@ -354,7 +395,7 @@ fn prepare(out: &Path) -> anyhow::Result<()> {
             out.display()
         );
     }
-    Ok(())
+    Ok(held)
 }
 
 fn progress_bar(max_generations: u64) -> ProgressBar {

@@ -83,7 +83,7 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
     super::out_folder(&out)?;
     // Everything is checked before the folder is written: one refused
     // leaves nothing that would refuse the corrected command.
-    let store = SweepStore::at(&out, &sweep, args.resume)?;
+    let mut store = SweepStore::at(&out, &sweep, args.resume)?;
     let mut records = store
         .settings
         .iter()

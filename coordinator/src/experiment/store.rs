@@ -4,6 +4,7 @@
 
 use super::file::Experiment;
 use super::runner::TrialId;
+use crate::folder_lock::{FolderLock, LockError};
 use crate::run_files::{refuse_others, write_json, OthersResults, Results, EXPERIMENT};
 use lander_report::model::TrialRecord;
 use std::path::{Path, PathBuf};
@@ -20,6 +21,8 @@ pub enum StoreError {
     NothingToResume { dir: PathBuf },
     #[error(transparent)]
     Others(#[from] OthersResults),
+    #[error(transparent)]
+    Lock(#[from] LockError),
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> StoreError + '_ {
@@ -35,6 +38,9 @@ pub struct Store {
     /// methods and trials, each trial's start); none for a folder only
     /// read.
     expects: Option<Experiment>,
+    /// The folder, held while this command writes to it; none for a
+    /// folder only read, or one not made yet.
+    lock: Option<FolderLock>,
 }
 
 impl Store {
@@ -42,7 +48,7 @@ impl Store {
     /// interrupted run of the same experiment left ([`Store::at`], then
     /// [`Store::create`]).
     pub fn open(dir: &Path, exp: &Experiment, resume: bool) -> Result<Store, StoreError> {
-        let store = Store::at(dir, exp, resume)?;
+        let mut store = Store::at(dir, exp, resume)?;
         store.create()?;
         Ok(store)
     }
@@ -52,10 +58,12 @@ impl Store {
     /// calls [`Store::create`], so that one refused leaves no folder that
     /// would refuse the corrected command. [`Store::finished`] reads
     /// nothing from a folder not yet created.
+    /// A folder that is there is held from here on ([`FolderLock`]).
     pub fn at(dir: &Path, exp: &Experiment, resume: bool) -> Result<Store, StoreError> {
         let store = Store {
             dir: dir.to_path_buf(),
             expects: Some(exp.clone()),
+            lock: FolderLock::hold_if_there(dir)?,
         };
         refuse_others(dir, Results::Experiment)?;
         let definition = dir.join(EXPERIMENT);
@@ -68,8 +76,9 @@ impl Store {
         Ok(store)
     }
 
-    /// Creates the folder and writes the experiment's definition into it.
-    pub fn create(&self) -> Result<(), StoreError> {
+    /// Creates the folder, holds it, and writes the experiment's
+    /// definition into it.
+    pub fn create(&mut self) -> Result<(), StoreError> {
         // The folder first, so that an error names it rather than a folder
         // inside it.
         for folder in [self.dir.clone(), self.trials_dir()] {
@@ -77,6 +86,9 @@ impl Store {
                 message: format!("cannot create the folder: {e}"),
                 path: folder,
             })?;
+        }
+        if self.lock.is_none() {
+            self.lock = Some(FolderLock::hold(&self.dir)?);
         }
         let definition = self.dir.join(EXPERIMENT);
         let exp = self.expects.as_ref().ok_or_else(|| StoreError::Io {
@@ -94,6 +106,7 @@ impl Store {
         Store {
             dir: dir.to_path_buf(),
             expects: None,
+            lock: None,
         }
     }
 
@@ -449,6 +462,13 @@ mod tests {
         store.save(&record(Method::Guided, 2)).unwrap();
         store.save(&record(Method::Ga, 2)).unwrap();
         std::fs::write(dir.join("trials/ga-00003.json.tmp"), "{half").unwrap();
+        // Held while open: another command is refused, even one that
+        // would resume it.
+        assert!(matches!(
+            Store::open(&dir, &exp, true),
+            Err(StoreError::Lock(LockError::InUse(_)))
+        ));
+        drop(store);
         assert!(matches!(
             Store::open(&dir, &exp, false),
             Err(StoreError::Occupied { .. })

@@ -6,6 +6,7 @@
 use super::file::Sweep;
 use crate::experiment::store::difference_from_file;
 use crate::experiment::{Store, StoreError};
+use crate::folder_lock::{FolderLock, LockError};
 use crate::run_files::{refuse_others, write_json, OthersResults, Results, EXPERIMENT, SWEEP};
 use std::path::{Path, PathBuf};
 
@@ -23,6 +24,8 @@ pub enum SweepStoreError {
     Setting(#[from] StoreError),
     #[error(transparent)]
     Others(#[from] OthersResults),
+    #[error(transparent)]
+    Lock(#[from] LockError),
 }
 
 /// The sweep folder and one experiment store per setting, in the sweep's
@@ -32,6 +35,9 @@ pub struct SweepStore {
     /// The sweep's definition, as `sweep.json` holds it.
     definition: serde_json::Value,
     pub settings: Vec<Store>,
+    /// The folder, held while this command writes to it; none before it
+    /// is made.
+    lock: Option<FolderLock>,
 }
 
 impl SweepStore {
@@ -39,14 +45,16 @@ impl SweepStore {
     /// interrupted run of the same sweep left ([`SweepStore::at`], then
     /// [`SweepStore::create`]).
     pub fn open(dir: &Path, sweep: &Sweep, resume: bool) -> Result<SweepStore, SweepStoreError> {
-        let store = SweepStore::at(dir, sweep, resume)?;
+        let mut store = SweepStore::at(dir, sweep, resume)?;
         store.create()?;
         Ok(store)
     }
 
     /// The store of `sweep` in `dir`, checked as [`SweepStore::open`]
-    /// checks it but not yet written ([`Store::at`]).
+    /// checks it but not yet written ([`Store::at`]); a folder that is
+    /// there is held from here on ([`FolderLock`]).
     pub fn at(dir: &Path, sweep: &Sweep, resume: bool) -> Result<SweepStore, SweepStoreError> {
+        let lock = FolderLock::hold_if_there(dir)?;
         refuse_others(dir, Results::Sweep)?;
         let definition = dir.join(SWEEP);
         let fresh = serde_json::to_value(sweep.definition()).map_err(|e| SweepStoreError::Io {
@@ -74,22 +82,26 @@ impl SweepStore {
             dir: dir.to_path_buf(),
             definition: fresh,
             settings,
+            lock,
         })
     }
 
-    /// Creates the folder, writes the sweep's definition into it, and
-    /// creates every setting's folder.
-    pub fn create(&self) -> Result<(), SweepStoreError> {
+    /// Creates the folder, holds it, writes the sweep's definition into
+    /// it, and creates every setting's folder.
+    pub fn create(&mut self) -> Result<(), SweepStoreError> {
         std::fs::create_dir_all(&self.dir).map_err(|e| SweepStoreError::Io {
             path: self.dir.clone(),
             message: format!("cannot create the folder: {e}"),
         })?;
+        if self.lock.is_none() {
+            self.lock = Some(FolderLock::hold(&self.dir)?);
+        }
         let definition = self.dir.join(SWEEP);
         write_json(&definition, &self.definition).map_err(|e| SweepStoreError::Io {
             path: definition.clone(),
             message: e.cause.to_string(),
         })?;
-        for setting in &self.settings {
+        for setting in &mut self.settings {
             setting.create()?;
         }
         Ok(())
