@@ -39,8 +39,12 @@ pub struct Store {
     /// read.
     expects: Option<Experiment>,
     /// The folder, held while this command writes to it; none for a
-    /// folder only read, or one not made yet.
+    /// folder only read, one not made yet, or one inside a held folder.
     lock: Option<FolderLock>,
+    /// Whether this store holds its folder itself: not a setting's inside
+    /// a sweep's folder, which the sweep holds (one lock for all its
+    /// settings rather than an open folder each).
+    holds: bool,
 }
 
 impl Store {
@@ -60,10 +64,30 @@ impl Store {
     /// nothing from a folder not yet created.
     /// A folder that is there is held from here on ([`FolderLock`]).
     pub fn at(dir: &Path, exp: &Experiment, resume: bool) -> Result<Store, StoreError> {
+        Store::checked(dir, exp, resume, true)
+    }
+
+    /// [`Store::at`] for a folder inside one this command holds already,
+    /// as a sweep holds its settings' folders: not held again.
+    pub fn within(dir: &Path, exp: &Experiment, resume: bool) -> Result<Store, StoreError> {
+        Store::checked(dir, exp, resume, false)
+    }
+
+    fn checked(
+        dir: &Path,
+        exp: &Experiment,
+        resume: bool,
+        holds: bool,
+    ) -> Result<Store, StoreError> {
+        let lock = match holds {
+            true => FolderLock::hold_if_there(dir)?,
+            false => None,
+        };
         let store = Store {
             dir: dir.to_path_buf(),
             expects: Some(exp.clone()),
-            lock: FolderLock::hold_if_there(dir)?,
+            lock,
+            holds,
         };
         refuse_others(dir, Results::Experiment)?;
         let definition = dir.join(EXPERIMENT);
@@ -87,7 +111,7 @@ impl Store {
                 path: folder,
             })?;
         }
-        if self.lock.is_none() {
+        if self.holds && self.lock.is_none() {
             self.lock = Some(FolderLock::hold(&self.dir)?);
         }
         let definition = self.dir.join(EXPERIMENT);
@@ -107,6 +131,7 @@ impl Store {
             dir: dir.to_path_buf(),
             expects: None,
             lock: None,
+            holds: false,
         }
     }
 
@@ -152,14 +177,13 @@ impl Store {
     /// removed.
     pub fn finished(&self) -> Result<Vec<TrialRecord>, StoreError> {
         let dir = self.trials_dir();
-        let listing = match std::fs::read_dir(&dir) {
-            // Not yet created (`Store::at`): nothing finished.
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound && self.expects.is_some() => {
-                return Ok(Vec::new())
-            }
-            listing => listing.map_err(io(&dir))?,
-        };
-        let mut paths: Vec<PathBuf> = listing
+        // Not yet created (`Store::at`): nothing finished. Creating it
+        // names what stands in the way, if anything does.
+        if self.expects.is_some() && !dir.exists() {
+            return Ok(Vec::new());
+        }
+        let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
+            .map_err(io(&dir))?
             .map(|e| e.map(|e| e.path()).map_err(io(&dir)))
             .collect::<Result<_, _>>()?;
         paths.sort();

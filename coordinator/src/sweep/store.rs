@@ -75,7 +75,7 @@ impl SweepStore {
                 // A setting whose first trial had not finished may have no
                 // folder yet.
                 let begun = at.join(EXPERIMENT).exists();
-                Store::at(&at, &s.experiment, resume && begun)
+                Store::within(&at, &s.experiment, resume && begun)
             })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(SweepStore {
