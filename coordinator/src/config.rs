@@ -88,6 +88,17 @@ impl RunConfig {
     /// Checks every field, naming the first that is out of range. Each
     /// section checks itself; run it again after every override.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        // Here as well as where the threads start, so that a file's value
+        // is refused naming the file.
+        lander_model::check::check(
+            "threads",
+            self.threads <= crate::evaluator::MAX_THREADS,
+            format_args!(
+                "must be 0 (one per core) to {} (got {})",
+                crate::evaluator::MAX_THREADS,
+                self.threads
+            ),
+        )?;
         self.world.check()?;
         self.scoring.check()?;
         self.guided.check()?;
@@ -256,6 +267,10 @@ mod tests {
             ("[world]\nthrust = 1e308\nmass = 1e-300", "world.thrust"),
             ("[world]\nmass = 1e-9", "world.thrust"),
             ("[world]\ngravity = -1e9", "world.gravity"),
+            (
+                "threads = 100000",
+                "threads must be 0 (one per core) to 1024",
+            ),
             // rot turned to NaN, written out as nulls.
             (
                 "[world]\nrotation_step = 1.7e308",

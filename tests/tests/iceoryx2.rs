@@ -633,6 +633,15 @@ fn bad_worker_options_are_refused() {
             vec!["bench", "--stress", "--kill-rate", "1e308"],
             "--kill-rate must be 0 to 100",
         ),
+        // Not ignored without the mode they belong to.
+        (
+            vec!["bench", "--kill-rate", "5"],
+            "--kill-rate applies only to --stress",
+        ),
+        (
+            vec!["bench", "--soak", "5"],
+            "--soak applies only to --stress",
+        ),
         (
             vec!["run", "--workers", "1", "--coordinator-share", "sometimes"],
             "--coordinator-share",

@@ -101,13 +101,13 @@ pub struct BenchArgs {
     /// chunks itself, as `lander run --coordinator-share`.
     #[arg(long, value_enum, value_name = "WHEN", default_value_t = CoordinatorShare::Auto)]
     coordinator_share: CoordinatorShare,
-    /// With --stress: worker kills per second, on average.
-    #[arg(long, value_name = "PER_S", default_value_t = 2.0, requires = "stress")]
-    kill_rate: f64,
+    /// With --stress: worker kills per second, on average [default: 2].
+    #[arg(long, value_name = "PER_S")]
+    kill_rate: Option<f64>,
     /// With --stress: fly the workload again and again for this long, and
     /// check that the coordinator's memory, open descriptors and iceoryx2
     /// files do not grow (a soak).
-    #[arg(long, value_name = "SECONDS", requires = "stress")]
+    #[arg(long, value_name = "SECONDS")]
     soak: Option<u64>,
     /// The worker-process modes (or --stress's churned pool) count into
     /// metrics served here, as `lander run --metrics`, to measure what
@@ -116,11 +116,14 @@ pub struct BenchArgs {
     watch: super::watch::WatchArgs,
 }
 
+/// Worker kills per second under --stress, unless --kill-rate says.
+const DEFAULT_KILL_RATE: f64 = 2.0;
+
 fn args_for_stress(args: &BenchArgs, telemetry: &Telemetry) -> super::stress::StressArgs {
     super::stress::StressArgs {
         telemetry: telemetry.clone(),
         workers: args.workers,
-        kill_rate: args.kill_rate,
+        kill_rate: args.kill_rate.unwrap_or(DEFAULT_KILL_RATE),
         no_pin: args.no_pin,
         json: args.json,
         soak: args.soak.map(Duration::from_secs),
@@ -234,6 +237,14 @@ pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
     cfg.validate()?;
     let generations = args.generations.or(generations);
     anyhow::ensure!(generations != Some(0), "--generations must be at least 1");
+    // Checked here rather than by clap's `requires`, which a flag's
+    // default (`--stress` off) satisfies.
+    for (given, flag) in [
+        (args.kill_rate.is_some(), "--kill-rate"),
+        (args.soak.is_some(), "--soak"),
+    ] {
+        anyhow::ensure!(args.stress || !given, "{flag} applies only to --stress");
+    }
     if args.stress {
         anyhow::ensure!(
             args.chunks_per_worker.is_none(),
