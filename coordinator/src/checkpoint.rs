@@ -129,10 +129,16 @@ pub fn decode(path: &Path, bytes: &[u8]) -> Result<Checkpoint, CheckpointError> 
 pub fn save(dir: &Path, checkpoint: &Checkpoint) -> Result<(), CheckpointError> {
     let path = dir.join(FILE);
     let tmp = dir.join(format!("{FILE}.tmp"));
-    let mut file = std::fs::File::create(&tmp).map_err(io(&tmp))?;
-    file.write_all(&encode(checkpoint)).map_err(io(&tmp))?;
-    file.sync_all().map_err(io(&tmp))?;
-    drop(file);
+    let written = std::fs::File::create(&tmp).and_then(|mut file| {
+        file.write_all(&encode(checkpoint))?;
+        file.sync_all()
+    });
+    if let Err(e) = written {
+        // A half-written file (a full disk) is not left beside the last
+        // good checkpoint.
+        let _ = std::fs::remove_file(&tmp);
+        return Err(io(&tmp)(e));
+    }
     std::fs::rename(&tmp, &path).map_err(io(&path))?;
     // The rename itself is durable only once the folder is synced.
     std::fs::File::open(dir)
@@ -170,6 +176,22 @@ mod tests {
             config: cfg,
             state: Saved::Evolving(run.state().unwrap()),
         }
+    }
+
+    #[test]
+    fn a_save_that_fails_leaves_the_last_checkpoint_and_no_half_file() {
+        let dir = tempfile::tempdir().unwrap();
+        save(dir.path(), &checkpoint()).unwrap();
+        let good = std::fs::read(dir.path().join(FILE)).unwrap();
+        // The next save's file, written where every write fails as on a
+        // full disk.
+        let tmp = dir.path().join(format!("{FILE}.tmp"));
+        std::os::unix::fs::symlink("/dev/full", &tmp).unwrap();
+        let err = save(dir.path(), &checkpoint()).unwrap_err().to_string();
+        assert!(err.contains("checkpoint.bin.tmp"), "{err}");
+        assert!(err.contains("No space left"), "{err}");
+        assert!(!tmp.exists() && tmp.symlink_metadata().is_err());
+        assert_eq!(std::fs::read(dir.path().join(FILE)).unwrap(), good);
     }
 
     #[test]

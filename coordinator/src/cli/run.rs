@@ -328,7 +328,11 @@ fn evolve(
                     state.index,
                     out.display()
                 ),
-                (Err(e), _) => format!("; saving checkpoint.bin failed: {e:#}"),
+                // Stopped by the save itself (a full disk): said once.
+                (Err(failed), _) if format!("{failed:#}") == e.to_string() => {
+                    "; nor could it be saved".into()
+                }
+                (Err(failed), _) => format!("; saving checkpoint.bin failed too ({failed:#})"),
                 _ => String::new(),
             };
             return Err(anyhow::Error::new(e).context(format!("the trial stopped{hint}")));
