@@ -118,10 +118,15 @@ pub fn config() -> Result<Config, IpcError> {
 /// nor the variable that moves it.
 fn check_root(root: &str) -> Result<(), IpcError> {
     let failed = |detail: String| IpcError {
-        what: format!("the directory for its files, {root} (set {ROOT_ENV} to move it)"),
+        what: format!("the directory for its files, {root:?} (set {ROOT_ENV} to move it)"),
         detail,
     };
     let dir = std::path::Path::new(root);
+    // iceoryx2 takes a relative or empty root, and then fails to create
+    // its files, saying only `ResourceCreationFailed`.
+    if !dir.is_absolute() {
+        return Err(failed("must be an absolute path".into()));
+    }
     std::fs::create_dir_all(dir).map_err(|e| failed(e.to_string()))?;
     let probe = dir.join(format!(".lander-probe-{}", std::process::id()));
     std::fs::File::create(&probe).map_err(|e| failed(format!("cannot create a file: {e}")))?;

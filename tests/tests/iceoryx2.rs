@@ -695,7 +695,12 @@ fn an_unusable_iceoryx2_folder_is_named_with_its_variable() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("a-file");
     std::fs::write(&file, "").unwrap();
-    for root in [file.clone(), file.join("below")] {
+    for root in [
+        file.clone(),
+        file.join("below"),
+        "".into(),
+        "relative".into(),
+    ] {
         let out = iox
             .command("lander")
             .args(["run", "--workers", "1", "--out"])
