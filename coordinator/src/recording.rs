@@ -70,6 +70,8 @@ pub fn best_landing(exp: &Experiment, records: &[TrialRecord]) -> Option<Recordi
     for r in records {
         let Some(lander) = &r.best else { continue };
         let cfg = exp.config(r.method, r.trial);
+        // Records are checked as they are read (`Store::finished`): a
+        // genome that does not read is not among them.
         let Ok(genes) = parse_genome(&lander.genome, cfg.ga.max_duration) else {
             continue;
         };

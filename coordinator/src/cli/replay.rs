@@ -144,7 +144,7 @@ fn from_folder(dir: &Path, args: &ReplayArgs) -> anyhow::Result<Recording> {
         // flight replayed.
         exp.validate()
             .with_context(|| format!("{}", definition.display()))?;
-        let records = Store::read_only(dir).finished()?;
+        let records = Store::read_only(dir, &exp).finished()?;
         return best_landing(&exp, &ordered(&exp, records))
             .with_context(|| format!("{} has no GA trial to replay", dir.display()));
     }

@@ -35,9 +35,9 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> StoreError + '_ {
 pub struct Store {
     dir: PathBuf,
     /// The experiment whose trials a record must be one of (its seed, its
-    /// methods and trials, each trial's start); none for a folder only
-    /// read.
-    expects: Option<Experiment>,
+    /// methods and trials, each trial's start, its best lander's genome
+    /// and pad).
+    expects: Experiment,
     /// The folder, held while this command writes to it; none for a
     /// folder only read, one not made yet, or one inside a held folder.
     lock: Option<FolderLock>,
@@ -85,7 +85,7 @@ impl Store {
         };
         let store = Store {
             dir: dir.to_path_buf(),
-            expects: Some(exp.clone()),
+            expects: exp.clone(),
             lock,
             holds,
         };
@@ -115,21 +115,18 @@ impl Store {
             self.lock = Some(FolderLock::hold(&self.dir)?);
         }
         let definition = self.dir.join(EXPERIMENT);
-        let exp = self.expects.as_ref().ok_or_else(|| StoreError::Io {
-            path: definition.clone(),
-            message: "a folder opened to be read is not written".into(),
-        })?;
-        write_json(&definition, exp).map_err(|e| StoreError::Io {
+        write_json(&definition, &self.expects).map_err(|e| StoreError::Io {
             path: definition.clone(),
             message: e.cause.to_string(),
         })
     }
 
-    /// A folder to read finished trials from, changing nothing in it.
-    pub fn read_only(dir: &Path) -> Store {
+    /// The folder of `exp` to read finished trials from, each checked as
+    /// `--resume` checks it, holding and writing nothing.
+    pub fn read_only(dir: &Path, exp: &Experiment) -> Store {
         Store {
             dir: dir.to_path_buf(),
-            expects: None,
+            expects: exp.clone(),
             lock: None,
             holds: false,
         }
@@ -179,7 +176,7 @@ impl Store {
         let dir = self.trials_dir();
         // Not yet created (`Store::at`): nothing finished. Creating it
         // names what stands in the way, if anything does.
-        if self.expects.is_some() && !dir.exists() {
+        if !dir.exists() {
             return Ok(Vec::new());
         }
         let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
@@ -224,7 +221,7 @@ impl Store {
                 record.trial
             ));
         }
-        let expects = self.expects.as_ref()?;
+        let expects = &self.expects;
         if record.seed != expects.seed {
             return Some(format!(
                 "its seed is {}, the experiment's {}",
@@ -245,12 +242,28 @@ impl Store {
                     .join(", ")
             ));
         }
-        let env = expects.config(record.method, record.trial).env(0);
+        let cfg = expects.config(record.method, record.trial);
+        let env = cfg.env(0);
         if record.x0 != env.x0 || record.pad_x != env.pad_x {
             return Some(format!(
                 "it starts at x0 {} over the pad at {}, where the trial starts at {} over {}",
                 record.x0, record.pad_x, env.x0, env.pad_x
             ));
+        }
+        // Its best lander is flown again for the report's replay.
+        if let Some(best) = &record.best {
+            if let Err(e) = lander_model::parse_genome(&best.genome, cfg.ga.max_duration) {
+                return Some(format!("its best genome does not read: {e}"));
+            }
+            let w = &cfg.world;
+            if !(w.pad_margin..w.width - w.pad_margin).contains(&best.pad_x) {
+                return Some(format!(
+                    "its best lander flew to a pad at {:?}, where every pad is in [{}, {})",
+                    best.pad_x,
+                    w.pad_margin,
+                    w.width - w.pad_margin
+                ));
+            }
         }
         match record.generations {
             Some(n) if n != record.fitness.len() as u64 => Some(format!(
@@ -395,7 +408,19 @@ mod tests {
         padded.pad_x += 1.0;
         let mut short = record(Method::Ga, 1);
         short.fitness.pop();
+        let best = |genome: &str, pad_x| {
+            let mut r = record(Method::Ga, 1);
+            r.best = Some(lander_report::model::BestLander {
+                genome: genome.into(),
+                fitness: 1.0,
+                safe: false,
+                pad_x,
+            });
+            r
+        };
         for (wrong, at, said) in [
+            (best("2:30,9:1", 200.0), file.clone(), "its best genome"),
+            (best("2:30", 1e308), file.clone(), "a pad at 1e308"),
             (record(Method::Ga, 2), file.clone(), "it holds ga trial 2"),
             (
                 record(Method::Guided, 1),
@@ -426,7 +451,7 @@ mod tests {
             }
             std::fs::remove_file(&at).unwrap();
         }
-        store.save(&record(Method::Ga, 1)).unwrap();
+        store.save(&best("2:30,0:5", 200.0)).unwrap();
         assert_eq!(store.finished().unwrap().len(), 1);
     }
 
