@@ -313,6 +313,15 @@ fn bad_checkpoints_are_refused_and_nothing_is_overwritten() {
     other[8] = 9;
     fs::write(out.join("checkpoint.bin"), &other).unwrap();
     refused(&[], &["checkpoint.bin", "format 9"]);
+    // Whole and checksummed, but of a configuration no run accepts.
+    let path = out.join("checkpoint.bin");
+    let mut bad = lander_coordinator::checkpoint::decode(&path, &saved).unwrap();
+    bad.config.world.height = 1.0;
+    fs::write(&path, lander_coordinator::checkpoint::encode(&bad)).unwrap();
+    refused(
+        &[],
+        &["checkpoint.bin: invalid configuration: world.height"],
+    );
     fs::remove_file(out.join("checkpoint.bin")).unwrap();
     refused(&[], &["checkpoint.bin"]);
     // A fresh run does not overwrite an unfinished one.

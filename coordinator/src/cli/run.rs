@@ -166,6 +166,10 @@ fn resume(args: &RunArgs, dir: &Path, watch: &Watch, stop: &Stop) -> anyhow::Res
     let _held = FolderLock::hold_if_there(dir)?;
     nothing_to_resume(dir)?;
     let saved = checkpoint::load(dir)?;
+    saved
+        .config
+        .validate()
+        .with_context(|| dir.join(checkpoint::FILE).display().to_string())?;
     let cfg = args.config_over(saved.config.clone())?;
     if let Some(field) = differs(&saved.config, &cfg) {
         bail!(
