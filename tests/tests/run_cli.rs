@@ -470,24 +470,31 @@ fn a_run_replaces_an_earlier_runs_outputs_and_leaves_an_experiment_alone() {
     }
 }
 
-#[test]
-fn ctrl_c_stops_an_in_process_q_learning_run_with_its_episodes_kept() {
-    use lander_tests::{binary, interrupt, lines_in, wait_until};
+/// A Q(λ) run in-process into `dir` that would go on for hours, once it
+/// has written its first episode.
+fn endless_learning_in(dir: &std::path::Path) -> std::process::Child {
+    use lander_tests::{binary, lines_in, wait_until};
     use std::process::{Command, Stdio};
-    let dir = tempfile::tempdir().unwrap();
     let child = Command::new(binary("lander"))
         .args(["run", "--method", "qlearning", "--episodes", "10000000"])
-        .args(["--out", dir.path().to_str().unwrap()])
+        .args(["--out", dir.to_str().unwrap()])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let log = dir.path().join("episodes.jsonl");
     assert!(
-        wait_until(60, || lines_in(&log) > 0),
+        wait_until(60, || lines_in(&dir.join("episodes.jsonl")) > 0),
         "no episode was written"
     );
-    interrupt(child);
+    child
+}
+
+#[test]
+fn ctrl_c_stops_an_in_process_q_learning_run_with_its_episodes_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let child = endless_learning_in(dir.path());
+    let log = dir.path().join("episodes.jsonl");
+    lander_tests::interrupt(child);
     // Every episode flown is kept, whole and in order; there is no summary.
     let episodes: Vec<u64> = json_lines(&log)
         .iter()
@@ -500,22 +507,10 @@ fn ctrl_c_stops_an_in_process_q_learning_run_with_its_episodes_kept() {
 
 #[test]
 fn a_folder_in_use_is_refused_to_every_other_command_and_left_whole() {
-    use lander_tests::{binary, interrupt, lines_in, wait_until};
-    use std::process::{Command, Stdio};
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
-    let child = Command::new(binary("lander"))
-        .args(["run", "--method", "qlearning", "--episodes", "10000000"])
-        .args(["--out", out])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let child = endless_learning_in(dir.path());
     let log = dir.path().join("episodes.jsonl");
-    assert!(
-        wait_until(60, || lines_in(&log) > 0),
-        "no episode was written"
-    );
     let elsewhere = tempfile::tempdir().unwrap();
     let file = elsewhere.path().join("e.toml");
     std::fs::write(&file, "name = \"e\"\ntrials = 1\nmethods = [\"ga\"]\n").unwrap();
@@ -534,7 +529,7 @@ fn a_folder_in_use_is_refused_to_every_other_command_and_left_whole() {
             "{args:?}: {said}"
         );
     }
-    interrupt(child);
+    lander_tests::interrupt(child);
     // The run's episodes are whole and in order, and it resumes.
     let episodes = json_lines(&log).len() as u64;
     let numbers: Vec<u64> = json_lines(&log)
