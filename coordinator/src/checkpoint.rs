@@ -139,7 +139,10 @@ pub fn save(dir: &Path, checkpoint: &Checkpoint) -> Result<(), CheckpointError> 
         let _ = std::fs::remove_file(&tmp);
         return Err(io(&tmp)(e));
     }
-    std::fs::rename(&tmp, &path).map_err(io(&path))?;
+    if let Err(e) = std::fs::rename(&tmp, &path) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(io(&path)(e));
+    }
     // The rename itself is durable only once the folder is synced.
     std::fs::File::open(dir)
         .and_then(|d| d.sync_all())

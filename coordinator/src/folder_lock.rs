@@ -6,7 +6,9 @@
 //! The hold is an advisory lock (`flock`) on the folder itself: it leaves
 //! no file behind, and the kernel lets go of it when the process ends,
 //! however it ends, so a killed command never leaves its folder locked.
-//! A filesystem that has no such locks is written without one.
+//! A filesystem that has no such locks, or none on a folder (NFS takes an
+//! `flock` as a byte-range lock, which a folder opened to be read cannot
+//! hold), is written without one, with a warning.
 
 use std::fs::{File, TryLockError};
 use std::path::{Path, PathBuf};
@@ -18,6 +20,7 @@ pub struct FolderLock {
     _folder: Option<File>,
 }
 
+/// Why a folder could not be held.
 #[derive(Debug, thiserror::Error)]
 pub enum LockError {
     #[error(
@@ -32,7 +35,8 @@ pub enum LockError {
 }
 
 impl FolderLock {
-    /// Holds `dir`, a folder that exists, or says which command holds it.
+    /// Holds `dir`, a folder that exists, or says that another command
+    /// holds it.
     pub fn hold(dir: &Path) -> Result<FolderLock, LockError> {
         let io = |cause| LockError::Io {
             path: dir.to_path_buf(),
@@ -44,8 +48,12 @@ impl FolderLock {
                 _folder: Some(folder),
             }),
             Err(TryLockError::WouldBlock) => Err(LockError::InUse(dir.to_path_buf())),
-            Err(TryLockError::Error(e)) if e.kind() == std::io::ErrorKind::Unsupported => {
-                tracing::debug!("{}: no folder locks here; not locked", dir.display());
+            Err(TryLockError::Error(e)) if unlockable(&e) => {
+                tracing::warn!(
+                    "{}: this filesystem cannot lock a folder ({e}); \
+                     nothing keeps a second command out of it",
+                    dir.display()
+                );
                 Ok(FolderLock { _folder: None })
             }
             Err(TryLockError::Error(e)) => Err(io(e)),
@@ -60,6 +68,18 @@ impl FolderLock {
             Ok(None)
         }
     }
+}
+
+/// Whether `e` says the filesystem cannot lock a folder at all, rather
+/// than that something is wrong: no locks (`ENOTSUP`, `ENOLCK` without a
+/// lock daemon), or NFS's byte-range lock refusing a read-only folder
+/// (`EBADF`, `EINVAL`).
+fn unlockable(e: &std::io::Error) -> bool {
+    e.kind() == std::io::ErrorKind::Unsupported
+        || matches!(
+            e.raw_os_error(),
+            Some(libc::EBADF | libc::ENOLCK | libc::EINVAL | libc::EOPNOTSUPP)
+        )
 }
 
 #[cfg(test)]

@@ -711,7 +711,8 @@ fn an_unusable_iceoryx2_folder_is_named_with_its_variable() {
         assert!(!out.status.success(), "{root:?} was accepted");
         let err = stderr(&out);
         assert!(
-            err.contains(&root.display().to_string()) && err.contains("LANDER_IOX2_ROOT"),
+            err.contains(&format!("{:?}", root.display().to_string()))
+                && err.contains("LANDER_IOX2_ROOT"),
             "{err}"
         );
     }

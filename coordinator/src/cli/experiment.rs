@@ -91,6 +91,7 @@ fn experiment_watched(
     let in_flight = in_flight(args.in_flight, 4, args.transport.workers, args.threads)?;
     can_run(&todo, backend.as_ref())?;
     store.create()?;
+    watch.keep(store.take_hold());
     watch.begin(&out, "experiment")?;
 
     let bars = lander_telemetry::log::bars();

@@ -140,7 +140,7 @@ fn start(args: &RunArgs, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
         let pool = args.transport.pool(&watch.telemetry, stop)?;
         let every = args.checkpoint_every(cfg.method);
         super::learning::can_start(&cfg, pool.as_deref(), None, every)?;
-        let _held = prepare(&out)?;
+        watch.keep(Some(prepare(&out)?));
         watch.begin(&out, "run")?;
         return counted(watch, &cfg, || {
             super::learning::learn(&cfg, &out, args.json, pool, every, stop)
@@ -150,7 +150,7 @@ fn start(args: &RunArgs, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
     let evaluator = args
         .transport
         .evaluator(cfg.threads, &watch.telemetry, stop)?;
-    let _held = prepare(&out)?;
+    watch.keep(Some(prepare(&out)?));
     watch.begin(&out, "run")?;
     let log = RunLog::create(&out, GENERATIONS)?;
     let run = TrialRun::new(&cfg)?;
@@ -163,13 +163,16 @@ fn start(args: &RunArgs, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
 /// its log cut back to the checkpoint, and on to the end.
 fn resume(args: &RunArgs, dir: &Path, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
     // Held before the checkpoint is read: another command may be writing it.
-    let _held = FolderLock::hold_if_there(dir)?;
+    watch.keep(FolderLock::hold_if_there(dir)?);
     nothing_to_resume(dir)?;
     let saved = checkpoint::load(dir)?;
-    saved
-        .config
-        .validate()
-        .with_context(|| dir.join(checkpoint::FILE).display().to_string())?;
+    // Threads aside: they change no result, and the flags may set them.
+    RunConfig {
+        threads: 0,
+        ..saved.config.clone()
+    }
+    .validate()
+    .with_context(|| dir.join(checkpoint::FILE).display().to_string())?;
     let cfg = args.config_over(saved.config.clone())?;
     if let Some(field) = differs(&saved.config, &cfg) {
         bail!(
@@ -228,8 +231,8 @@ fn nothing_to_resume(dir: &Path) -> anyhow::Result<()> {
     }
     if let Some(file) = [BEST, "summary.json"].iter().find(|f| dir.join(f).exists()) {
         bail!(
-            "{}: the run there finished (it wrote {file} and removed its {}); there is nothing \
-             to resume",
+            "{}: the run there finished (it wrote {file} and left no {}); there is nothing to \
+             resume",
             dir.display(),
             checkpoint::FILE
         );
@@ -380,7 +383,10 @@ fn evolve(
 /// with a run's files (`generations.jsonl`, `summary.json`).
 fn prepare(out: &Path) -> anyhow::Result<FolderLock> {
     super::out_folder(out)?;
-    let held = FolderLock::hold_if_there(out)?;
+    // Made (empty) and held before it is looked at, so that no other
+    // command fills it between the look and the writes.
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let held = FolderLock::hold(out)?;
     refuse_others(out, Results::Run)?;
     if out.join(checkpoint::FILE).exists() {
         bail!(
@@ -390,11 +396,6 @@ fn prepare(out: &Path) -> anyhow::Result<FolderLock> {
             out.display()
         );
     }
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let held = match held {
-        Some(held) => held,
-        None => FolderLock::hold(out)?,
-    };
     let removed = clear_run_outputs(out)?;
     if !removed.is_empty() {
         tracing::info!(

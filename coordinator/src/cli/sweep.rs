@@ -108,6 +108,7 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
     )?;
     lander_coordinator::experiment::can_run(&plan.tasks, backend.as_ref())?;
     store.create()?;
+    watch.keep(store.take_hold());
     watch.begin(&out, "sweep")?;
 
     let bars = lander_telemetry::log::bars();

@@ -7,13 +7,14 @@ use anyhow::Context;
 use clap::Args;
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::experiment::{ExperimentError, Progress};
+use lander_coordinator::folder_lock::FolderLock;
 use lander_coordinator::trial::Generation;
 use lander_report::model::TrialRecord;
 use lander_telemetry::{CoordinatorMetrics, Event, MetricsServer, Telemetry};
 use std::collections::HashMap;
 use std::hash::Hash;
 use std::path::Path;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 #[derive(Args, Debug, Default)]
 pub struct WatchArgs {
@@ -27,6 +28,8 @@ pub struct WatchArgs {
 pub struct Watch {
     pub telemetry: Telemetry,
     _server: Option<MetricsServer>,
+    /// The command's folder, held until it has told how it ended.
+    held: Mutex<Option<FolderLock>>,
 }
 
 impl WatchArgs {
@@ -37,6 +40,7 @@ impl WatchArgs {
             return Ok(Watch {
                 telemetry: Telemetry::new(run_id, None),
                 _server: None,
+                held: Mutex::default(),
             });
         };
         let metrics = Arc::new(CoordinatorMetrics::new());
@@ -45,6 +49,7 @@ impl WatchArgs {
         Ok(Watch {
             telemetry: Telemetry::new(run_id, Some(metrics)),
             _server: Some(server),
+            held: Mutex::default(),
         })
     }
 }
@@ -62,14 +67,22 @@ impl Watch {
         Ok(())
     }
 
+    /// Holds the command's folder (`lock`) until [`Watch::end`] has
+    /// written the last line into it.
+    pub fn keep(&self, lock: Option<FolderLock>) {
+        *self.held.lock().unwrap_or_else(|p| p.into_inner()) = lock;
+    }
+
     /// Tells how the run ended: finished, interrupted (and resumable), or
-    /// stopped by an error, which the error itself reports.
+    /// stopped by an error, which the error itself reports. Then lets go
+    /// of the folder.
     pub fn end<T>(&self, result: &anyhow::Result<T>, interrupted: bool) {
         match (result, interrupted) {
             (Ok(_), _) => self.telemetry.event(Event::RunFinished),
             (Err(_), true) => self.telemetry.event(Event::RunInterrupted),
             (Err(_), false) => {}
         }
+        self.keep(None);
     }
 }
 

@@ -38,6 +38,8 @@ pub struct Store {
     /// methods and trials, each trial's start, its best lander's genome
     /// and pad).
     expects: Experiment,
+    /// Whether the command resumes the experiment in the folder.
+    resume: bool,
     /// The folder, held while this command writes to it; none for a
     /// folder only read, one not made yet, or one inside a held folder.
     lock: Option<FolderLock>,
@@ -45,6 +47,9 @@ pub struct Store {
     /// a sweep's folder, which the sweep holds (one lock for all its
     /// settings rather than an open folder each).
     holds: bool,
+    /// Whether this command writes the folder: not one only read, whose
+    /// experiment may be running and writing it.
+    writes: bool,
 }
 
 impl Store {
@@ -61,8 +66,8 @@ impl Store {
     /// but not yet written: a command makes its other checks before it
     /// calls [`Store::create`], so that one refused leaves no folder that
     /// would refuse the corrected command. [`Store::finished`] reads
-    /// nothing from a folder not yet created.
-    /// A folder that is there is held from here on ([`FolderLock`]).
+    /// nothing from a folder not yet created. A folder that is there is
+    /// held from here on ([`FolderLock`]).
     pub fn at(dir: &Path, exp: &Experiment, resume: bool) -> Result<Store, StoreError> {
         Store::checked(dir, exp, resume, true)
     }
@@ -86,34 +91,50 @@ impl Store {
         let store = Store {
             dir: dir.to_path_buf(),
             expects: exp.clone(),
+            resume,
             lock,
             holds,
+            writes: true,
         };
-        refuse_others(dir, Results::Experiment)?;
-        let definition = dir.join(EXPERIMENT);
-        match (definition.exists(), resume) {
-            (true, false) => return Err(StoreError::Occupied { dir: store.dir }),
-            (false, true) => return Err(StoreError::NothingToResume { dir: store.dir }),
-            (true, true) => store.check_same(&definition, exp)?,
-            (false, false) => {}
-        }
+        store.check()?;
         Ok(store)
     }
 
+    /// Whether the folder may hold this command's results: no other
+    /// command's, and an experiment's only when resuming that one.
+    fn check(&self) -> Result<(), StoreError> {
+        refuse_others(&self.dir, Results::Experiment)?;
+        let definition = self.dir.join(EXPERIMENT);
+        match (definition.exists(), self.resume) {
+            (true, false) => Err(StoreError::Occupied {
+                dir: self.dir.clone(),
+            }),
+            (false, true) => Err(StoreError::NothingToResume {
+                dir: self.dir.clone(),
+            }),
+            (true, true) => self.check_same(&definition, &self.expects),
+            (false, false) => Ok(()),
+        }
+    }
+
     /// Creates the folder, holds it, and writes the experiment's
-    /// definition into it.
+    /// definition into it. A folder made here is checked again once held:
+    /// another command may have made and filled it since [`Store::at`].
     pub fn create(&mut self) -> Result<(), StoreError> {
-        // The folder first, so that an error names it rather than a folder
-        // inside it.
-        for folder in [self.dir.clone(), self.trials_dir()] {
+        let made = |folder: PathBuf| {
             std::fs::create_dir_all(&folder).map_err(|e| StoreError::Io {
                 message: format!("cannot create the folder: {e}"),
                 path: folder,
-            })?;
-        }
+            })
+        };
+        // The folder first, so that an error names it rather than a folder
+        // inside it.
+        made(self.dir.clone())?;
         if self.holds && self.lock.is_none() {
             self.lock = Some(FolderLock::hold(&self.dir)?);
+            self.check()?;
         }
+        made(self.trials_dir())?;
         let definition = self.dir.join(EXPERIMENT);
         write_json(&definition, &self.expects).map_err(|e| StoreError::Io {
             path: definition.clone(),
@@ -121,14 +142,22 @@ impl Store {
         })
     }
 
+    /// The hold on the folder, for a caller that writes into it after the
+    /// store is gone.
+    pub fn take_hold(&mut self) -> Option<FolderLock> {
+        self.lock.take()
+    }
+
     /// The folder of `exp` to read finished trials from, each checked as
-    /// `--resume` checks it, holding and writing nothing.
+    /// `--resume` checks it, holding and changing nothing.
     pub fn read_only(dir: &Path, exp: &Experiment) -> Store {
         Store {
             dir: dir.to_path_buf(),
             expects: exp.clone(),
+            resume: true,
             lock: None,
             holds: false,
+            writes: false,
         }
     }
 
@@ -176,8 +205,12 @@ impl Store {
         let dir = self.trials_dir();
         // Not yet created (`Store::at`): nothing finished. Creating it
         // names what stands in the way, if anything does.
-        if !dir.exists() {
-            return Ok(Vec::new());
+        // (`--out` under a file, too: not a directory.)
+        if let Err(e) = std::fs::metadata(&dir) {
+            use std::io::ErrorKind::{NotADirectory, NotFound};
+            if matches!(e.kind(), NotFound | NotADirectory) {
+                return Ok(Vec::new());
+            }
         }
         let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
             .map_err(io(&dir))?
@@ -188,8 +221,12 @@ impl Store {
         for path in paths {
             match path.extension().and_then(|e| e.to_str()) {
                 Some("json") => {}
+                // Left by an interrupted write; read only, it may be a
+                // running experiment's write under way.
                 Some("tmp") => {
-                    std::fs::remove_file(&path).map_err(io(&path))?;
+                    if self.writes {
+                        std::fs::remove_file(&path).map_err(io(&path))?;
+                    }
                     continue;
                 }
                 _ => continue,

@@ -206,7 +206,9 @@ impl<T: Transport> Evaluator for Pool<T> {
         // batches share them.
         let per_batch = (workers * self.opts.chunks_per_worker).div_ceil(batches.len().max(1));
         let several = batches.len() > 1 && batches.iter().any(|b| !b.is_bred());
-        let busy = self.busy;
+        // Flying counts the coordinator's own chunks too: in place of the
+        // worker on its CPU it flies that worker's share.
+        let busy = self.busy + self.busy_here;
         let mut breeding = Duration::ZERO;
         if several && !self.pace.keeps_up(self.at_once(workers)) {
             breeding = breed_in_parallel(&mut batches);
@@ -275,7 +277,7 @@ impl<T: Transport> Evaluator for Pool<T> {
         if several {
             self.pace = Pace {
                 breeding,
-                flying: self.busy.saturating_sub(busy),
+                flying: (self.busy + self.busy_here).saturating_sub(busy),
             };
         }
         let mut evaluations: Vec<Vec<Evaluation>> = batches
@@ -317,7 +319,8 @@ fn breed_in_parallel(batches: &mut [Batch<'_>]) -> Duration {
 
 /// What a step of several batches still to be bred cost: the
 /// coordinator's CPU time breeding them and cutting their chunks, and the
-/// workers' time flying them.
+/// time flying them: the workers', and the coordinator's on the chunks it
+/// flew itself.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct Pace {
     pub breeding: Duration,

@@ -435,7 +435,10 @@ impl<T: Transport> Pool<T> {
                 (i, false)
             }
         };
-        match (check.here)(chunk) {
+        let cpu = lander_protocol::host::thread_cpu_time();
+        let flown = (check.here)(chunk);
+        self.busy_here += lander_protocol::host::thread_cpu_time().saturating_sub(cpu);
+        match flown {
             Ok(value) => {
                 finished(chunk, &value);
                 progress.take_here(chunk, value);

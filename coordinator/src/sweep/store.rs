@@ -34,6 +34,8 @@ pub struct SweepStore {
     dir: PathBuf,
     /// The sweep's definition, as `sweep.json` holds it.
     definition: serde_json::Value,
+    /// Whether the command resumes the sweep in the folder.
+    resume: bool,
     pub settings: Vec<Store>,
     /// The folder, held while this command writes to it; none before it
     /// is made.
@@ -55,18 +57,11 @@ impl SweepStore {
     /// there is held from here on ([`FolderLock`]).
     pub fn at(dir: &Path, sweep: &Sweep, resume: bool) -> Result<SweepStore, SweepStoreError> {
         let lock = FolderLock::hold_if_there(dir)?;
-        refuse_others(dir, Results::Sweep)?;
-        let definition = dir.join(SWEEP);
         let fresh = serde_json::to_value(sweep.definition()).map_err(|e| SweepStoreError::Io {
-            path: definition.clone(),
+            path: dir.join(SWEEP),
             message: e.to_string(),
         })?;
-        match (definition.exists(), resume) {
-            (true, false) => return Err(SweepStoreError::Occupied { dir: dir.into() }),
-            (false, true) => return Err(SweepStoreError::NothingToResume { dir: dir.into() }),
-            (true, true) => check_same(dir, &definition, &fresh)?,
-            (false, false) => {}
-        }
+        check(dir, &fresh, resume)?;
         let settings = sweep
             .settings
             .iter()
@@ -81,13 +76,16 @@ impl SweepStore {
         Ok(SweepStore {
             dir: dir.to_path_buf(),
             definition: fresh,
+            resume,
             settings,
             lock,
         })
     }
 
     /// Creates the folder, holds it, writes the sweep's definition into
-    /// it, and creates every setting's folder.
+    /// it, and creates every setting's folder. A folder made here is
+    /// checked again once held: another command may have made and filled
+    /// it since [`SweepStore::at`].
     pub fn create(&mut self) -> Result<(), SweepStoreError> {
         std::fs::create_dir_all(&self.dir).map_err(|e| SweepStoreError::Io {
             path: self.dir.clone(),
@@ -95,6 +93,7 @@ impl SweepStore {
         })?;
         if self.lock.is_none() {
             self.lock = Some(FolderLock::hold(&self.dir)?);
+            check(&self.dir, &self.definition, self.resume)?;
         }
         let definition = self.dir.join(SWEEP);
         write_json(&definition, &self.definition).map_err(|e| SweepStoreError::Io {
@@ -107,6 +106,12 @@ impl SweepStore {
         Ok(())
     }
 
+    /// The hold on the folder, for a caller that writes into it after the
+    /// store is gone.
+    pub fn take_hold(&mut self) -> Option<FolderLock> {
+        self.lock.take()
+    }
+
     pub fn dir(&self) -> &Path {
         &self.dir
     }
@@ -115,6 +120,19 @@ impl SweepStore {
 /// Where a setting's experiment folder is.
 pub fn setting_dir(dir: &Path, folder: &str) -> PathBuf {
     dir.join("settings").join(folder)
+}
+
+/// Whether `dir` may hold the sweep `fresh` defines: no other command's
+/// results, and a sweep's only when resuming that one.
+fn check(dir: &Path, fresh: &serde_json::Value, resume: bool) -> Result<(), SweepStoreError> {
+    refuse_others(dir, Results::Sweep)?;
+    let definition = dir.join(SWEEP);
+    match (definition.exists(), resume) {
+        (true, false) => Err(SweepStoreError::Occupied { dir: dir.into() }),
+        (false, true) => Err(SweepStoreError::NothingToResume { dir: dir.into() }),
+        (true, true) => check_same(dir, &definition, fresh),
+        (false, false) => Ok(()),
+    }
 }
 
 fn check_same(

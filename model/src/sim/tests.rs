@@ -207,8 +207,15 @@ fn the_tick_guard_ends_an_endless_flight_as_a_crash() {
 
 #[test]
 fn the_largest_rotation_steps_keep_every_number_finite() {
-    // A million ticks rotating the wrong way round at a full turn a tick,
-    // which no wrap catches: the state stays finite.
+    let finite = |o: &Outcome| {
+        let s = o.state;
+        [s.x, s.y, s.vx, s.vy, s.rot, o.fitness]
+            .iter()
+            .all(|v| v.is_finite())
+    };
+    // 300,000 ticks rotating at a full turn a tick, either way round,
+    // where the wrap that catches one way does not catch the other: the
+    // state stays finite. Beyond the bound it does not.
     for step in [std::f64::consts::TAU, -std::f64::consts::TAU] {
         let mut e = env(200.0, 100.0);
         e.world.gravity = 0.0;
@@ -216,17 +223,18 @@ fn the_largest_rotation_steps_keep_every_number_finite() {
         e.world.max_ticks = 1_000_000;
         e.world.check().unwrap();
         for action in [Action::RotateLeft, Action::RotateRight] {
-            let o = fly(&e, &[Gene::new(action, 1)]);
-            let s = o.state;
-            assert!(
-                [s.x, s.y, s.vx, s.vy, s.rot, o.fitness]
-                    .iter()
-                    .all(|v| v.is_finite()),
-                "{step} {action:?}: {o:?}"
-            );
+            let genome = vec![Gene::new(action, 30); 10_000];
+            let o = fly(&e, &genome);
+            assert!(o.n == 300_000 && finite(&o), "{step} {action:?}: {o:?}");
         }
         e.world.rotation_step = step * 1.0001;
         assert!(e.world.check().is_err());
+        e.world.rotation_step = step.signum() * 1.7e308;
+        let turning_back = match step > 0.0 {
+            true => Action::RotateLeft,
+            false => Action::RotateRight,
+        };
+        assert!(!finite(&fly(&e, &[Gene::new(turning_back, 30)])));
     }
 }
 
