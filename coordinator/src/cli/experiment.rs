@@ -84,11 +84,11 @@ fn experiment_watched(
         .filter(|t| !done.contains(t))
         .collect();
     let todo = experiment_tasks(&exp, &todo);
+    let in_flight = in_flight(args.in_flight, 4, args.transport.workers, args.threads)?;
     let since = Instant::now();
     let mut backend = args
         .transport
         .evaluator(args.threads, &watch.telemetry, stop)?;
-    let in_flight = in_flight(args.in_flight, 4, args.transport.workers, args.threads)?;
     can_run(&todo, backend.as_ref())?;
     store.create()?;
     watch.keep(store.take_hold());

@@ -136,11 +136,14 @@ fn start(args: &RunArgs, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
             cfg.trial
         ))
     });
+    // A folder in use is refused before any worker is started.
+    super::out_folder(&out)?;
+    let held = FolderLock::hold_if_there(&out)?;
     if cfg.method == Method::Qlearning {
         let pool = args.transport.pool(&watch.telemetry, stop)?;
         let every = args.checkpoint_every(cfg.method);
         super::learning::can_start(&cfg, pool.as_deref(), None, every)?;
-        watch.keep(Some(prepare(&out)?));
+        watch.keep(Some(prepare(&out, held)?));
         watch.begin(&out, "run")?;
         return counted(watch, &cfg, || {
             super::learning::learn(&cfg, &out, args.json, pool, every, stop)
@@ -150,7 +153,7 @@ fn start(args: &RunArgs, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
     let evaluator = args
         .transport
         .evaluator(cfg.threads, &watch.telemetry, stop)?;
-    watch.keep(Some(prepare(&out)?));
+    watch.keep(Some(prepare(&out, held)?));
     watch.begin(&out, "run")?;
     let log = RunLog::create(&out, GENERATIONS)?;
     let run = TrialRun::new(&cfg)?;
@@ -378,15 +381,19 @@ fn evolve(
 
 /// Readies `out` for this run, once the configuration and the workers are
 /// known to be good, so a run that cannot start leaves an earlier run's
-/// results alone, and holds it for the run ([`FolderLock`]). An
-/// experiment's or a sweep's folder is refused: their tables share names
-/// with a run's files (`generations.jsonl`, `summary.json`).
-fn prepare(out: &Path) -> anyhow::Result<FolderLock> {
+/// results alone, and holds it for the run ([`FolderLock`]; `held`, where
+/// it was there to hold already). An experiment's or a sweep's folder is
+/// refused: their tables share names with a run's files
+/// (`generations.jsonl`, `summary.json`).
+fn prepare(out: &Path, held: Option<FolderLock>) -> anyhow::Result<FolderLock> {
     super::out_folder(out)?;
     // Made (empty) and held before it is looked at, so that no other
     // command fills it between the look and the writes.
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let held = FolderLock::hold(out)?;
+    let held = match held {
+        Some(held) => held,
+        None => FolderLock::hold(out)?,
+    };
     refuse_others(out, Results::Run)?;
     if out.join(checkpoint::FILE).exists() {
         bail!(

@@ -96,16 +96,16 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
         .map(|s| s.experiment.trial_count() as usize)
         .sum();
     let done = total - plan.trials();
-    let since = Instant::now();
-    let mut backend = args
-        .transport
-        .evaluator(args.threads, &watch.telemetry, stop)?;
     let in_flight = in_flight(
         args.in_flight,
         IN_FLIGHT_PER_WORKER,
         args.transport.workers,
         args.threads,
     )?;
+    let since = Instant::now();
+    let mut backend = args
+        .transport
+        .evaluator(args.threads, &watch.telemetry, stop)?;
     lander_coordinator::experiment::can_run(&plan.tasks, backend.as_ref())?;
     store.create()?;
     watch.keep(store.take_hold());
