@@ -37,7 +37,9 @@ use std::time::Duration;
         \x20   lander-worker --run demo                 # in others, as many as you like\n\n\
         Workers may join or leave at any time; a chunk a departed worker held is flown \
         again by another, with identical results. A worker started before its run waits \
-        for it. It exits when the run ends, its coordinator disappears, or on SIGINT/SIGTERM.\n\n\
+        for it. It exits when the run ends, its coordinator disappears, or on SIGINT/SIGTERM, \
+        with status 0 (a worker stopped loses no work: its chunks are flown again); an \
+        error exits with 1.\n\n\
         Across hosts, over zenoh:\n\n\
         \x20   lander run --attach --run-id demo --transport zenoh --listen tcp/0.0.0.0:7447 \\\n\
         \x20       --users users.txt                   # on the coordinator's host\n\
