@@ -78,7 +78,7 @@ fn unlockable(e: &std::io::Error) -> bool {
     e.kind() == std::io::ErrorKind::Unsupported
         || matches!(
             e.raw_os_error(),
-            Some(libc::EBADF | libc::ENOLCK | libc::EINVAL | libc::EOPNOTSUPP)
+            Some(libc::EBADF | libc::ENOLCK | libc::EINVAL)
         )
 }
 

@@ -212,8 +212,8 @@ fn resume(args: &RunArgs, dir: &Path, watch: &Watch, stop: &Stop) -> anyhow::Res
 }
 
 /// Says why a folder without a checkpoint has no run to resume, where its
-/// files tell: another command's results, or a run that finished (and
-/// removed its checkpoint). Otherwise reading the checkpoint says.
+/// files tell: another command's results, or a run that finished.
+/// Otherwise reading the checkpoint says.
 fn nothing_to_resume(dir: &Path) -> anyhow::Result<()> {
     if dir.join(checkpoint::FILE).exists() {
         return Ok(());
@@ -379,14 +379,13 @@ fn evolve(
     Ok(())
 }
 
-/// Readies `out` for this run, once the configuration and the workers are
-/// known to be good, so a run that cannot start leaves an earlier run's
-/// results alone, and holds it for the run ([`FolderLock`]; `held`, where
-/// it was there to hold already). An experiment's or a sweep's folder is
-/// refused: their tables share names with a run's files
-/// (`generations.jsonl`, `summary.json`).
+/// Readies `out` (a folder, if it is there: `out_folder`) for this run,
+/// once the configuration and the workers are known to be good, so a run
+/// that cannot start leaves an earlier run's results alone, and holds it
+/// for the run ([`FolderLock`]; `held`, where it was there to hold
+/// already). An experiment's or a sweep's folder is refused: their tables
+/// share names with a run's files (`generations.jsonl`, `summary.json`).
 fn prepare(out: &Path, held: Option<FolderLock>) -> anyhow::Result<FolderLock> {
-    super::out_folder(out)?;
     // Made (empty) and held before it is looked at, so that no other
     // command fills it between the look and the writes.
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;

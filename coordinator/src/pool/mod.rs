@@ -139,7 +139,7 @@ pub struct Pool<T: Transport> {
     taken_back: u64,
     /// Chunks the coordinator flew itself (`PoolOptions::share`).
     flown_here: u64,
-    /// The coordinator's own CPU time on the chunks it flew.
+    /// The coordinator's own time on the chunks it flew.
     busy_here: std::time::Duration,
     /// The CPU the thread running the pool's loop shares with the last
     /// worker, where there is a worker on every CPU (`Placement`).

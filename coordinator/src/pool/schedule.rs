@@ -14,7 +14,7 @@ use lander_telemetry::events::Cause;
 use lander_telemetry::Event;
 use std::collections::VecDeque;
 use std::ops::Range;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// How long a spawned worker whose link broke is given to exit before it
 /// is told as disconnected: a killed process's sockets close a moment
@@ -435,9 +435,11 @@ impl<T: Transport> Pool<T> {
                 (i, false)
             }
         };
-        let cpu = lander_protocol::host::thread_cpu_time();
+        // Wall time, as the workers' own is: and a clock read from the vDSO,
+        // where the thread's CPU clock would cost a system call a chunk.
+        let started = Instant::now();
         let flown = (check.here)(chunk);
-        self.busy_here += lander_protocol::host::thread_cpu_time().saturating_sub(cpu);
+        self.busy_here += started.elapsed();
         match flown {
             Ok(value) => {
                 finished(chunk, &value);
