@@ -121,6 +121,10 @@ pub type IpcPool = Pool<iceoryx::Iceoryx>;
 /// The pool over zenoh, for workers on any host.
 pub type ZenohPool = Pool<zenoh::Zenoh>;
 
+/// What one look at a link found: its worker's id and pid, the answers
+/// that arrived, and why an answer was refused, if one was.
+type Polled = (u64, u32, Vec<Answer>, Option<String>);
+
 pub struct Pool<T: Transport> {
     opts: PoolOptions,
     transport: T,
@@ -156,6 +160,10 @@ pub struct Pool<T: Transport> {
     /// ([`lander_protocol::wire::MOST_EPISODES_PER_CHUNK`]; fewer in tests).
     episodes_per_chunk: u32,
     told_waiting: bool,
+    /// Answers read while a step was still being bred, so that their
+    /// workers had room for more (`Pool::hand_early`): the step's loop
+    /// takes them first.
+    arrived: Vec<Polled>,
     /// Kept only when asked for, so long runs do not accumulate them.
     timings: Option<Vec<ChunkTiming>>,
     /// The workers' own time on every chunk answered, summed.

@@ -7,7 +7,7 @@
 use super::progress::{subject, Progress};
 use super::spawn::ChildId;
 use super::verify::{Check, Outcome, Verdict};
-use super::{Answer, Pool, Transport, WorkerLink};
+use super::{Answer, Polled, Pool, Transport, WorkerLink};
 use crate::evaluator::EvalError;
 use lander_protocol::wire::{JobHeader, WireGene};
 use lander_telemetry::events::Cause;
@@ -44,6 +44,12 @@ pub(super) fn chunk_ranges(n: usize, parts: usize, workers: usize) -> Vec<Range<
         }
     }
     ranges
+}
+
+/// One look at `link`'s answers, with its worker's id and pid.
+fn look(link: &mut impl WorkerLink) -> Polled {
+    let (answers, refused) = link.poll();
+    (link.id(), link.pid(), answers, refused)
 }
 
 /// The chunks a generation handed out while it was bred
@@ -206,6 +212,7 @@ impl<T: Transport> Pool<T> {
     /// Gives up on every chunk still in flight, at a generation's end: an
     /// answer to one is then never read.
     pub(super) fn abandon_in_flight(&mut self) {
+        self.arrived.clear();
         for link in &mut self.links {
             link.abandon();
         }
@@ -302,9 +309,9 @@ impl<T: Transport> Pool<T> {
     /// checks is refused now.
     fn collect<R>(&mut self, progress: &mut Progress<R>) -> Vec<(u64, Answer)> {
         let mut fresh = Vec::new();
-        for i in 0..self.links.len() {
-            let (answers, refused) = self.links[i].poll();
-            let (id, pid) = (self.links[i].id(), self.links[i].pid());
+        let mut polled = std::mem::take(&mut self.arrived);
+        polled.extend(self.links.iter_mut().map(look));
+        for (id, pid, answers, refused) in polled {
             if let Some(e) = refused {
                 let who = self.worker_ref(id, pid);
                 self.refuse(id, who, format!("a result: {e}"));
@@ -488,6 +495,7 @@ impl<T: Transport> Pool<T> {
         let Some(chunk) = chunks.len().checked_sub(1) else {
             return;
         };
+        self.look_while_breeding();
         let links = self.links.len();
         let Some(i) = (0..links).map(|k| (early.next + k) % links).find(|&i| {
             self.links[i].has_room()
@@ -498,13 +506,18 @@ impl<T: Transport> Pool<T> {
             return;
         };
         early.next = i + 1;
+        // A worker that has answered all it held may have gone to sleep.
+        let idle = self.links[i].in_flight() == 0;
         if !self.hand(i, chunks, chunk, &mut VecDeque::new()) {
             return;
         }
         early.sent.push(chunk);
         let id = self.links[i].id();
-        if !early.woken.contains(&id) {
+        let first = !early.woken.contains(&id);
+        if first {
             early.woken.push(id);
+        }
+        if first || idle {
             if let Err(e) = self.links[i].notify() {
                 // Its chunks go elsewhere when the broken link is dropped.
                 tracing::warn!("cannot notify worker {id:016x}: {e}");
@@ -564,6 +577,18 @@ impl<T: Transport> Pool<T> {
                 tracing::warn!("cannot send to worker {:016x}: {e}", link.id());
                 todo.push_front(chunk);
                 false
+            }
+        }
+    }
+
+    /// Reads the answers that arrived at links with chunks in flight and
+    /// keeps them for the step's loop ([`Pool::collect`]): their workers
+    /// then have room again while the coordinator still breeds.
+    fn look_while_breeding(&mut self) {
+        for link in self.links.iter_mut().filter(|l| l.in_flight() > 0) {
+            let polled = look(link);
+            if !polled.2.is_empty() || polled.3.is_some() {
+                self.arrived.push(polled);
             }
         }
     }

@@ -58,6 +58,7 @@ impl<T: Transport> Pool<T> {
             flown_here: 0,
             busy_here: Duration::ZERO,
             told_waiting: false,
+            arrived: Vec::new(),
             timings: None,
             busy: std::time::Duration::ZERO,
             pace: Default::default(),

@@ -106,10 +106,14 @@ fn breeding_as_handed_out_keeps_up_while_one_thread_does_not_hold_the_workers_up
 }
 
 /// A pool over flying links, one per CPU, the last beside the
-/// coordinator, cutting a generation as `lander run` does: more chunks
-/// than the workers' queues hold while it is bred.
+/// coordinator, cutting a generation as `lander run` does. The workers are
+/// slower than the breeding, so that more chunks are bred than their
+/// queues hold.
 fn on_every_cpu(dir: &std::path::Path) -> Pool<Nowhere> {
     let mut pool = super::fake::on_every_cpu(dir, true);
+    for link in &mut pool.links {
+        link.looks_per_answer = 3;
+    }
     pool.opts.chunks_per_worker = crate::pool::DEPTH;
     pool.opts.stand_in = true;
     pool
@@ -154,5 +158,31 @@ fn without_the_stand_in_every_worker_flies_its_share() {
         "a worker sent nothing"
     );
     assert_eq!(pool.flown_here(), 0);
+    assert_eq!(pool.children.stop_all(&[]), 0);
+}
+
+#[test]
+fn a_worker_that_keeps_up_with_the_breeding_gets_every_chunk_as_it_is_bred() {
+    let dir = tempfile::tempdir().unwrap();
+    // Workers that answer at every look: the pool looks for answers as it
+    // breeds, so their queues never stay full.
+    let mut pool = super::fake::on_every_cpu(dir.path(), true);
+    pool.opts.chunks_per_worker = crate::pool::DEPTH;
+    pool.opts.stand_in = true;
+    let others = pool.links.len() - 1;
+    let several = step(&mut pool);
+    assert!(several == step(&mut InProcess::new(2).unwrap()));
+    if others > 0 {
+        let sent: usize = pool.links[..others].iter().map(|l| l.sent.len()).sum();
+        assert!(
+            sent > others * crate::pool::DEPTH,
+            "{sent} chunks went out: no more than the queues hold"
+        );
+        assert_eq!(pool.flown_here(), 0, "a chunk waited for the coordinator");
+        assert!(pool.links[others].sent.is_empty());
+    } else {
+        // Alone, the worker beside the coordinator flies everything.
+        assert!(!pool.links[0].sent.is_empty());
+    }
     assert_eq!(pool.children.stop_all(&[]), 0);
 }

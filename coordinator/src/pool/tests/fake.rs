@@ -15,7 +15,8 @@ use std::time::{Duration, Instant};
 /// at the next poll, or, if it `fails_checks`, all but the last, whose
 /// answer fails the link's own checks and breaks it. One that `flies`
 /// evaluates or trains each chunk as a worker does, and answers with the
-/// result.
+/// result. One with `looks_per_answer` n above 0 is slow: it answers one
+/// chunk at every n-th look, none at the others.
 pub struct Recorder {
     pub id: u64,
     pub chunks: Vec<usize>,
@@ -31,6 +32,9 @@ pub struct Recorder {
     /// (`None`: every send succeeds).
     pub sends_left: Option<usize>,
     pub pid: u32,
+    pub looks_per_answer: usize,
+    /// Looks at it so far.
+    pub looks: usize,
 }
 
 impl Recorder {
@@ -46,6 +50,8 @@ impl Recorder {
             fails_checks: false,
             broken: false,
             sends_left: None,
+            looks_per_answer: 0,
+            looks: 0,
         }
     }
 
@@ -118,8 +124,12 @@ impl WorkerLink for Recorder {
             started_ns: 0,
             finished_ns: 0,
         };
+        self.looks += 1;
         let keep = usize::from(self.fails_checks && !self.chunks.is_empty());
-        let good = self.chunks.len() - keep;
+        let mut good = self.chunks.len() - keep;
+        if self.looks_per_answer > 0 {
+            good = good.min(usize::from(self.looks % self.looks_per_answer == 0));
+        }
         let answered: Vec<usize> = self.chunks.drain(..good).collect();
         let answers = answered
             .into_iter()
