@@ -128,7 +128,9 @@ impl WorkerLink for Recorder {
         let keep = usize::from(self.fails_checks && !self.chunks.is_empty());
         let mut good = self.chunks.len() - keep;
         if self.looks_per_answer > 0 {
-            good = good.min(usize::from(self.looks % self.looks_per_answer == 0));
+            good = good.min(usize::from(
+                self.looks.is_multiple_of(self.looks_per_answer),
+            ));
         }
         let answered: Vec<usize> = self.chunks.drain(..good).collect();
         let answers = answered
