@@ -1,5 +1,8 @@
 //! Getting a generation's chunks flown: how a generation is cut
-//! (`chunk_ranges`, largest first), and [`Pool::run_chunks`]'s loop of
+//! (`chunk_ranges`, largest first), chunks handed out while the rest of
+//! their step is bred (`Pool::hand_early`, which reads the answers that
+//! arrived first, so that a worker that answered all it held gets more),
+//! and [`Pool::run_chunks`]'s loop of
 //! collecting answers, handing out what is queued round-robin
 //! (`Pool::dispatch`), taking back from a busy worker for an idle one
 //! (`Pool::rebalance`), and only then decoding.
