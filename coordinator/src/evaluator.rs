@@ -222,11 +222,22 @@ pub trait Evaluator {
     fn drive(&mut self, work: &mut (dyn FnMut(&mut dyn Evaluator) + Send));
 
     /// The time worker processes have spent on jobs so far, summed over
-    /// the workers (a chunk answered twice counts twice); `None` without
+    /// the workers (a chunk answered twice counts twice), and the time the
+    /// coordinator spent flying chunks itself beside them; `None` without
     /// worker processes.
-    fn worker_busy(&self) -> Option<std::time::Duration> {
+    fn worker_busy(&self) -> Option<Busy> {
         None
     }
+}
+
+/// Time spent on jobs beside worker processes ([`Evaluator::worker_busy`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Busy {
+    /// The workers' own time on the jobs they answered.
+    pub workers: std::time::Duration,
+    /// The coordinator's, on the chunks it flew itself: a share of its
+    /// own, or that of the worker on its CPU.
+    pub here: std::time::Duration,
 }
 
 /// The threads on which a step of `batches` generations is best bred

@@ -9,7 +9,7 @@ use anyhow::Context;
 use clap::Args;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use lander_coordinator::config::RunConfig;
-use lander_coordinator::evaluator::Backend;
+use lander_coordinator::evaluator::{Backend, Busy};
 use lander_coordinator::experiment::outputs::{ordered, write_outputs};
 use lander_coordinator::experiment::{
     can_run, experiment_tasks, run, trials, Experiment, ExperimentError, Progress, Store, TrialId,
@@ -161,16 +161,27 @@ pub(super) fn in_flight(
 }
 
 /// Says how busy the spawned workers were since `since`: their time on
-/// jobs over their number times the wall time.
+/// jobs over their number times the wall time; and, where the coordinator
+/// flew chunks itself (in place of the worker on its CPU, or on a CPU the
+/// workers leave idle), for how long.
 pub(super) fn say_busy(backend: &dyn Backend, workers: usize, since: Instant) {
     let (Some(busy), true) = (backend.worker_busy(), workers > 0) else {
         return;
     };
     let wall = since.elapsed().as_secs_f64();
-    tracing::info!(
-        "{workers} workers were busy {:.1}% of {wall:.1} s",
-        100.0 * busy.as_secs_f64() / (workers as f64 * wall)
-    );
+    tracing::info!("{}", busy_line(busy, workers, wall));
+}
+
+fn busy_line(busy: Busy, workers: usize, wall: f64) -> String {
+    let share = 100.0 * busy.workers.as_secs_f64() / (workers as f64 * wall);
+    let line = format!("{workers} workers were busy {share:.1}% of {wall:.1} s");
+    if busy.here.is_zero() {
+        return line;
+    }
+    format!(
+        "{line}, and the coordinator flew chunks itself for {:.1} s of it",
+        busy.here.as_secs_f64()
+    )
 }
 
 pub(super) fn style(template: &str) -> ProgressStyle {
@@ -267,5 +278,33 @@ impl Progress<TrialId> for Bars<'_> {
         self.records.push(record);
         self.overall.inc(1);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::busy_line;
+    use lander_coordinator::evaluator::Busy;
+    use std::time::Duration;
+
+    #[test]
+    fn the_coordinators_own_flying_is_said_beside_the_workers() {
+        let busy = Busy {
+            workers: Duration::from_millis(1500),
+            here: Duration::ZERO,
+        };
+        // 1.5 s of 2 workers × 2 s.
+        assert_eq!(
+            busy_line(busy, 2, 2.0),
+            "2 workers were busy 37.5% of 2.0 s"
+        );
+        let busy = Busy {
+            here: Duration::from_millis(600),
+            ..busy
+        };
+        assert_eq!(
+            busy_line(busy, 2, 2.0),
+            "2 workers were busy 37.5% of 2.0 s, and the coordinator flew chunks itself for 0.6 s of it"
+        );
     }
 }

@@ -7,7 +7,7 @@
 use super::schedule::{chunk_ranges, Chunk, Early};
 use super::verify::{self, Check};
 use super::{Pool, Transport};
-use crate::evaluator::{Batch, EvalError, Evaluator, Trainer};
+use crate::evaluator::{Batch, Busy, EvalError, Evaluator, Trainer};
 use lander_model::learn::{run_training, LearnState};
 use lander_model::{Action, Evaluation, TrainJob, TrainResult};
 use lander_protocol::host::thread_cpu_time;
@@ -190,8 +190,11 @@ impl<T: Transport> Evaluator for Pool<T> {
         work(self)
     }
 
-    fn worker_busy(&self) -> Option<std::time::Duration> {
-        Some(self.busy)
+    fn worker_busy(&self) -> Option<Busy> {
+        Some(Busy {
+            workers: self.busy,
+            here: self.busy_here,
+        })
     }
 
     fn evaluate_many(
