@@ -6,10 +6,14 @@
 //! The hold is an advisory lock (`flock`) on the folder itself: it leaves
 //! no file behind, and the kernel lets go of it when the process ends,
 //! however it ends, so a killed command never leaves its folder locked.
+//! A sweep holds its own folder but not each setting's under it, so a
+//! command given a setting's folder holds the sweep's too
+//! ([`FolderLock::hold_sweep_of`]).
 //! A filesystem that has no such locks, or none on a folder (NFS takes an
 //! `flock` as a byte-range lock, which a folder opened to be read cannot
 //! hold), is written without one, with a warning.
 
+use crate::run_files::SWEEP;
 use std::fs::{File, TryLockError};
 use std::path::{Path, PathBuf};
 
@@ -17,7 +21,8 @@ use std::path::{Path, PathBuf};
 /// free again.
 #[derive(Debug)]
 pub struct FolderLock {
-    _folder: Option<File>,
+    /// The folders held (none where the filesystem cannot lock them).
+    _folders: Vec<File>,
 }
 
 /// Why a folder could not be held.
@@ -27,6 +32,11 @@ pub enum LockError {
         "{0} is in use by another lander command; wait for it to end, or choose another --out"
     )]
     InUse(PathBuf),
+    #[error(
+        "{setting} is a setting of the sweep in {sweep}, which another lander command is \
+         running; wait for it to end, or choose another --out"
+    )]
+    SweepInUse { setting: PathBuf, sweep: PathBuf },
     #[error("{path}: cannot lock the folder: {cause}")]
     Io {
         path: PathBuf,
@@ -45,7 +55,7 @@ impl FolderLock {
         let folder = File::open(dir).map_err(io)?;
         match folder.try_lock() {
             Ok(()) => Ok(FolderLock {
-                _folder: Some(folder),
+                _folders: vec![folder],
             }),
             Err(TryLockError::WouldBlock) => Err(LockError::InUse(dir.to_path_buf())),
             Err(TryLockError::Error(e)) if unlockable(&e) => {
@@ -54,10 +64,36 @@ impl FolderLock {
                      nothing keeps a second command out of it",
                     dir.display()
                 );
-                Ok(FolderLock { _folder: None })
+                Ok(FolderLock {
+                    _folders: Vec::new(),
+                })
             }
             Err(TryLockError::Error(e)) => Err(io(e)),
         }
+    }
+
+    /// Holds, where `dir` is a setting's folder of a sweep
+    /// (`<sweep>/settings/<name>`, the sweep's definition beside
+    /// `settings`), the sweep's folder, or says that another command holds
+    /// it: the sweep running, or another command on one of its settings.
+    pub fn hold_sweep_of(dir: &Path) -> Result<Option<FolderLock>, LockError> {
+        let Some(sweep) = sweep_of(dir) else {
+            return Ok(None);
+        };
+        match FolderLock::hold(&sweep) {
+            Err(LockError::InUse(_)) => Err(LockError::SweepInUse {
+                setting: dir.to_path_buf(),
+                sweep,
+            }),
+            held => held.map(Some),
+        }
+    }
+
+    /// This hold and `other` as one.
+    pub fn and(mut self, other: Option<FolderLock>) -> FolderLock {
+        self._folders
+            .extend(other.into_iter().flat_map(|l| l._folders));
+        self
     }
 
     /// Holds `dir` if it exists: a folder not yet made is held once it is.
@@ -68,6 +104,14 @@ impl FolderLock {
             Ok(None)
         }
     }
+}
+
+/// The sweep folder whose setting `dir` is, if it is one.
+fn sweep_of(dir: &Path) -> Option<PathBuf> {
+    let settings = dir.parent()?;
+    let sweep = settings.parent()?;
+    (settings.file_name()? == "settings" && sweep.join(SWEEP).is_file())
+        .then(|| sweep.to_path_buf())
 }
 
 /// Whether `e` says the filesystem cannot lock a folder at all, rather
@@ -102,6 +146,33 @@ mod tests {
         FolderLock::hold(dir.path()).unwrap();
         // Nothing is left in the folder.
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn a_setting_of_a_held_sweep_is_refused_naming_both() {
+        let dir = tempfile::tempdir().unwrap();
+        let sweep = dir.path().join("sweep");
+        let setting = sweep.join("settings").join("mutation_rate=0.1");
+        std::fs::create_dir_all(&setting).unwrap();
+        // Not a sweep's folder without its definition.
+        assert!(FolderLock::hold_sweep_of(&setting).unwrap().is_none());
+        std::fs::write(sweep.join(SWEEP), "{}").unwrap();
+        let running = FolderLock::hold(&sweep).unwrap();
+        match FolderLock::hold_sweep_of(&setting) {
+            Err(e @ LockError::SweepInUse { .. }) => {
+                let said = e.to_string();
+                assert!(said.contains(&setting.display().to_string()), "{said}");
+                assert!(said.contains(&sweep.display().to_string()), "{said}");
+            }
+            other => panic!("a setting of a held sweep was held: {other:?}"),
+        }
+        drop(running);
+        // Held through one of its settings, the sweep is refused in turn.
+        let through = FolderLock::hold_sweep_of(&setting).unwrap();
+        assert!(through.is_some());
+        assert!(matches!(FolderLock::hold(&sweep), Err(LockError::InUse(_))));
+        // A folder not inside a sweep's settings holds nothing more.
+        assert!(FolderLock::hold_sweep_of(&sweep).unwrap().is_none());
     }
 
     #[test]

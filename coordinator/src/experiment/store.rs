@@ -43,6 +43,9 @@ pub struct Store {
     /// The folder, held while this command writes to it; none for a
     /// folder only read, one not made yet, or one inside a held folder.
     lock: Option<FolderLock>,
+    /// The sweep whose setting the folder is, held where this command was
+    /// given the setting's folder itself ([`FolderLock::hold_sweep_of`]).
+    sweep: Option<FolderLock>,
     /// Whether this store holds its folder itself: not a setting's inside
     /// a sweep's folder, which the sweep holds (one lock for all its
     /// settings rather than an open folder each).
@@ -84,15 +87,19 @@ impl Store {
         resume: bool,
         holds: bool,
     ) -> Result<Store, StoreError> {
-        let lock = match holds {
-            true => FolderLock::hold_if_there(dir)?,
-            false => None,
+        let (sweep, lock) = match holds {
+            true => (
+                FolderLock::hold_sweep_of(dir)?,
+                FolderLock::hold_if_there(dir)?,
+            ),
+            false => (None, None),
         };
         let store = Store {
             dir: dir.to_path_buf(),
             expects: exp.clone(),
             resume,
             lock,
+            sweep,
             holds,
             writes: true,
         };
@@ -145,7 +152,11 @@ impl Store {
     /// The hold on the folder, for a caller that writes into it after the
     /// store is gone.
     pub fn take_hold(&mut self) -> Option<FolderLock> {
-        self.lock.take()
+        let sweep = self.sweep.take();
+        match self.lock.take() {
+            Some(lock) => Some(lock.and(sweep)),
+            None => sweep,
+        }
     }
 
     /// The folder of `exp` to read finished trials from, each checked as
@@ -156,6 +167,7 @@ impl Store {
             expects: exp.clone(),
             resume: true,
             lock: None,
+            sweep: None,
             holds: false,
             writes: false,
         }
@@ -577,5 +589,40 @@ mod tests {
         );
         assert!(!dir.join("trials/ga-00003.json.tmp").exists());
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_setting_of_a_sweep_under_way_is_left_to_the_sweep() {
+        let dir = tempfile::tempdir().unwrap();
+        let sweep = dir.path().join("sweep");
+        let setting = sweep.join("settings").join("a");
+        let exp = Experiment::default();
+        std::fs::create_dir_all(&sweep).unwrap();
+        std::fs::write(sweep.join(crate::run_files::SWEEP), "{}").unwrap();
+        // The sweep writes its setting as a store within its own hold.
+        let running = FolderLock::hold(&sweep).unwrap();
+        let mut within = Store::within(&setting, &exp, false).unwrap();
+        within.create().unwrap();
+        within.save(&record(Method::Ga, 1)).unwrap();
+        // Another command given the setting's folder is refused before it
+        // reads or writes anything.
+        assert!(matches!(
+            Store::at(&setting, &exp, true),
+            Err(StoreError::Lock(LockError::SweepInUse { .. }))
+        ));
+        drop(running);
+        // Once the sweep has stopped, the setting resumes on its own, and
+        // holds the sweep meanwhile.
+        let mut alone = Store::at(&setting, &exp, true).unwrap();
+        assert_eq!(alone.finished().unwrap().len(), 1);
+        assert!(matches!(FolderLock::hold(&sweep), Err(LockError::InUse(_))));
+        let hold = alone.take_hold();
+        drop(alone);
+        assert!(
+            FolderLock::hold(&sweep).is_err(),
+            "the hold let the sweep go"
+        );
+        drop(hold);
+        FolderLock::hold(&sweep).unwrap();
     }
 }
