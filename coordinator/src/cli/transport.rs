@@ -105,10 +105,11 @@ pub struct TransportArgs {
     /// free when other programs need the same CPUs.
     #[arg(long)]
     no_pin: bool,
-    /// Microseconds an evaluation thread polls for the next generation, or
-    /// a spawned iceoryx2 worker for its next chunk, before sleeping,
-    /// halving while none comes; only where each has a CPU of its own.
-    /// 0 never spins.
+    /// Microseconds an evaluation thread polls for the next generation, a
+    /// spawned iceoryx2 worker for its next chunk, or the coordinator for
+    /// its workers' answers, before sleeping, halving while none comes;
+    /// only where each has a CPU of its own (the coordinator: where it
+    /// flies the share of the worker on its CPU). 0 never spins.
     #[arg(long, value_name = "MICROSECONDS", default_value_t = DEFAULT_SPIN_US)]
     spin_us: u64,
     /// The share of answered chunks, 0 to 1, flown again on this host and

@@ -7,11 +7,12 @@
 //! to whichever worker has room first. Once none is left to hand out, a
 //! worker that has answered everything takes the last queued chunk of a
 //! busy one (`Pool::rebalance`). The pool sleeps on its `wake` event
-//! between results, never spinning; where it has a CPU that would
-//! otherwise idle ([`PoolOptions::share`]), it first flies a queued chunk
-//! itself (`Pool::fly_a_share`); it flies so the share of the worker on
-//! its own CPU, which is sent no evaluation chunk
-//! ([`PoolOptions::stand_in`]). A chunk whose worker dies (its process
+//! between results; where it has a CPU that would otherwise idle
+//! ([`PoolOptions::share`]), it first flies a queued chunk itself
+//! (`Pool::fly_a_share`); it flies so the share of the worker on its own
+//! CPU, which is sent no evaluation chunk ([`PoolOptions::stand_in`]), and
+//! there, with that CPU to itself, polls for answers for a bounded,
+//! adaptive time before it sleeps (`Pool::spin_for_answers`). A chunk whose worker dies (its process
 //! exits, its node is found dead, or its server disconnects) or misses its
 //! deadline goes back in the queue; a late duplicate is dropped
 //! by job id. Results are placed by chunk, so they are identical however the
@@ -96,8 +97,9 @@ pub struct PoolOptions {
     /// generations use whoever is there.
     pub min_workers: usize,
     /// How long a spawned iceoryx2 worker polls for its next chunk before
-    /// it sleeps, when each worker and the coordinator have a CPU of their
-    /// own (`lander_protocol::spin` says how it adapts); zero never spins.
+    /// it sleeps, when it has a CPU of its own, and the coordinator for
+    /// its workers' answers where it stands in for the worker on its CPU
+    /// (`lander_protocol::spin` says how it adapts); zero never spins.
     pub spin: Duration,
     /// The share of answered evaluation chunks flown again in-process and
     /// compared, 0 to 1 (`verify`).
@@ -161,9 +163,13 @@ pub struct Pool<T: Transport> {
     episodes_per_chunk: u32,
     told_waiting: bool,
     /// Answers read while a step was still being bred, so that their
-    /// workers had room for more (`Pool::hand_early`): the step's loop
-    /// takes them first.
+    /// workers had room for more (`Pool::hand_early`), or while the
+    /// coordinator polled for them (`Pool::spin_for_answers`): the step's
+    /// loop takes them first.
     arrived: Vec<Polled>,
+    /// How long the coordinator polls for answers before it sleeps, where
+    /// it has its CPU to itself.
+    answer_spin: lander_protocol::spin::Spin,
     /// Kept only when asked for, so long runs do not accumulate them.
     timings: Option<Vec<ChunkTiming>>,
     /// The workers' own time on every chunk answered, summed.

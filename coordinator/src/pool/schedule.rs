@@ -12,6 +12,7 @@ use super::spawn::ChildId;
 use super::verify::{Check, Outcome, Verdict};
 use super::{Answer, Polled, Pool, Transport, WorkerLink};
 use crate::evaluator::EvalError;
+use lander_protocol::spin::Spin;
 use lander_protocol::wire::{JobHeader, WireGene};
 use lander_telemetry::events::Cause;
 use lander_telemetry::Event;
@@ -201,8 +202,10 @@ impl<T: Transport> Pool<T> {
             if distrusted.is_empty()
                 && !self.links.iter().any(|l| l.is_broken())
                 && !self.fly_a_share(chunks, &mut progress, check, &mut finished)
+                && !self.spin_for_answers()
             {
                 self.sleep()?;
+                self.answer_spin.woke();
             }
         }
         // An answer no longer waited for (a check of an answer settled
@@ -474,6 +477,25 @@ impl<T: Transport> Pool<T> {
         }
     }
 
+    /// With nothing left to fly, where it stands in for the worker on its
+    /// CPU, the coordinator has that CPU to itself: it polls for the
+    /// answers it waits for, for a bounded, adaptive time
+    /// ([`PoolOptions::spin`](super::PoolOptions::spin), halved after
+    /// each poll that finds none), before it sleeps, sparing the wake-up
+    /// that ends most steps. Returns whether an answer came.
+    fn spin_for_answers(&mut self) -> bool {
+        if !(0..self.links.len()).any(|i| self.stands_in_for(i)) {
+            return false;
+        }
+        let mut spin = std::mem::replace(&mut self.answer_spin, Spin::new(Duration::ZERO));
+        let came = spin.poll(|| {
+            self.look_for_answers();
+            !self.arrived.is_empty()
+        });
+        self.answer_spin = spin;
+        came
+    }
+
     /// Whether the coordinator flies, in place of link `i`, the chunks
     /// that would go to it: `i` is the worker on the coordinator's CPU, in
     /// a step of evaluation (`Pool::stands_in`), and another worker is
@@ -498,7 +520,7 @@ impl<T: Transport> Pool<T> {
         let Some(chunk) = chunks.len().checked_sub(1) else {
             return;
         };
-        self.look_while_breeding();
+        self.look_for_answers();
         let links = self.links.len();
         let Some(i) = (0..links).map(|k| (early.next + k) % links).find(|&i| {
             self.links[i].has_room()
@@ -585,9 +607,9 @@ impl<T: Transport> Pool<T> {
     }
 
     /// Reads the answers that arrived at links with chunks in flight and
-    /// keeps them for the step's loop ([`Pool::collect`]): their workers
-    /// then have room again while the coordinator still breeds.
-    fn look_while_breeding(&mut self) {
+    /// keeps them for the step's loop ([`Pool::collect`]): while the
+    /// coordinator still breeds, their workers then have room again.
+    fn look_for_answers(&mut self) {
         for link in self.links.iter_mut().filter(|l| l.in_flight() > 0) {
             let polled = look(link);
             if !polled.2.is_empty() || polled.3.is_some() {

@@ -59,6 +59,7 @@ impl<T: Transport> Pool<T> {
             busy_here: Duration::ZERO,
             told_waiting: false,
             arrived: Vec::new(),
+            answer_spin: lander_protocol::spin::Spin::new(opts.spin),
             timings: None,
             busy: std::time::Duration::ZERO,
             pace: Default::default(),

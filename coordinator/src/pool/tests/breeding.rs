@@ -186,3 +186,25 @@ fn a_worker_that_keeps_up_with_the_breeding_gets_every_chunk_as_it_is_bred() {
     }
     assert_eq!(pool.children.stop_all(&[]), 0);
 }
+
+#[test]
+fn standing_in_the_coordinator_polls_for_its_last_answers_before_it_sleeps() {
+    let in_process = step(&mut InProcess::new(2).unwrap());
+    for spin in [Duration::ZERO, Duration::from_secs(5)] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut pool = on_every_cpu(dir.path());
+        pool.answer_spin = lander_protocol::spin::Spin::new(spin);
+        assert!(step(&mut pool) == in_process, "{spin:?}");
+        let stands_in = pool.links.len() > 1;
+        let sleeps = pool.transport.sleeps;
+        if spin.is_zero() && stands_in {
+            // Slow workers: with nothing left to fly, it slept for them.
+            assert!(sleeps > 0, "it never waited");
+        } else {
+            // Polling, it found every answer before its budget ran out;
+            // alone with a worker beside it, it flew everything itself.
+            assert_eq!(sleeps, 0, "{spin:?}");
+        }
+        assert_eq!(pool.children.stop_all(&[]), 0);
+    }
+}

@@ -16,7 +16,7 @@ fn a_worker_that_dies_before_it_joins_is_told_by_its_given_id_and_replaced() {
         max_respawns: 1,
         ..options()
     };
-    let mut pool = Pool::with_transport(Nowhere, opts, telemetry).unwrap();
+    let mut pool = Pool::with_transport(Nowhere::default(), opts, telemetry).unwrap();
     // Nobody ever joins: each wait looks after the workers a while, until
     // both processes are reaped.
     let read = || lander_telemetry::events::read(dir.path()).unwrap_or_default();

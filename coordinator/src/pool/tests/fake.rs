@@ -155,7 +155,12 @@ impl WorkerLink for Recorder {
     fn shut_down(&self) {}
 }
 
-pub struct Nowhere;
+/// No transport: no worker ever arrives, and a sleep returns at once,
+/// counted.
+#[derive(Default)]
+pub struct Nowhere {
+    pub sleeps: usize,
+}
 
 impl Transport for Nowhere {
     type Link = Recorder;
@@ -172,6 +177,7 @@ impl Transport for Nowhere {
         Vec::new()
     }
     fn sleep(&mut self, _: Duration) -> Result<(), EvalError> {
+        self.sleeps += 1;
         Ok(())
     }
     fn worker_args(&self) -> Vec<String> {
@@ -200,7 +206,7 @@ pub fn options() -> PoolOptions {
 }
 
 pub fn pool(links: Vec<Recorder>, telemetry: lander_telemetry::Telemetry) -> Pool<Nowhere> {
-    let mut pool = Pool::with_transport(Nowhere, options(), telemetry).unwrap();
+    let mut pool = Pool::with_transport(Nowhere::default(), options(), telemetry).unwrap();
     pool.links = links;
     pool
 }

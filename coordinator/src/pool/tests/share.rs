@@ -17,7 +17,7 @@ fn one_worker(share: bool) -> Pool<Nowhere> {
         share,
         ..super::fake::options()
     };
-    let mut pool = Pool::with_transport(Nowhere, opts, Default::default()).unwrap();
+    let mut pool = Pool::with_transport(Nowhere::default(), opts, Default::default()).unwrap();
     pool.links = vec![Recorder {
         answer: Some(vec![1]),
         ..Recorder::holding(7, Vec::new())
@@ -126,7 +126,7 @@ fn checked_workers(lies: &[(u64, u8)], telemetry: Telemetry) -> Pool<Nowhere> {
         share: true,
         ..super::fake::options()
     };
-    let mut pool = Pool::with_transport(Nowhere, opts, telemetry).unwrap();
+    let mut pool = Pool::with_transport(Nowhere::default(), opts, telemetry).unwrap();
     pool.links = answering(lies);
     pool
 }
