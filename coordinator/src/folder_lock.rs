@@ -33,8 +33,8 @@ pub enum LockError {
     )]
     InUse(PathBuf),
     #[error(
-        "{setting} is a setting of the sweep in {sweep}, which another lander command is \
-         running; wait for it to end, or choose another --out"
+        "{setting} is a setting of the sweep in {sweep}, which `lander sweep` is running; \
+         wait for it to end, or choose another --out"
     )]
     SweepInUse { setting: PathBuf, sweep: PathBuf },
     #[error("{path}: cannot lock the folder: {cause}")]
@@ -48,12 +48,25 @@ impl FolderLock {
     /// Holds `dir`, a folder that exists, or says that another command
     /// holds it.
     pub fn hold(dir: &Path) -> Result<FolderLock, LockError> {
+        FolderLock::take(dir, File::try_lock)
+    }
+
+    /// Holds `dir` shared: beside other shared holds, but not beside one
+    /// taken by [`FolderLock::hold`].
+    fn hold_shared(dir: &Path) -> Result<FolderLock, LockError> {
+        FolderLock::take(dir, File::try_lock_shared)
+    }
+
+    fn take(
+        dir: &Path,
+        lock: fn(&File) -> Result<(), TryLockError>,
+    ) -> Result<FolderLock, LockError> {
         let io = |cause| LockError::Io {
             path: dir.to_path_buf(),
             cause,
         };
         let folder = File::open(dir).map_err(io)?;
-        match folder.try_lock() {
+        match lock(&folder) {
             Ok(()) => Ok(FolderLock {
                 _folders: vec![folder],
             }),
@@ -74,13 +87,15 @@ impl FolderLock {
 
     /// Holds, where `dir` is a setting's folder of a sweep
     /// (`<sweep>/settings/<name>`, the sweep's definition beside
-    /// `settings`), the sweep's folder, or says that another command holds
-    /// it: the sweep running, or another command on one of its settings.
+    /// `settings`), the sweep's folder, shared, or says that the sweep is
+    /// running: commands on different settings of a sweep may run side by
+    /// side (each holds its own setting's folder as well), but none beside
+    /// the sweep itself.
     pub fn hold_sweep_of(dir: &Path) -> Result<Option<FolderLock>, LockError> {
         let Some(sweep) = sweep_of(dir) else {
             return Ok(None);
         };
-        match FolderLock::hold(&sweep) {
+        match FolderLock::hold_shared(&sweep) {
             Err(LockError::InUse(_)) => Err(LockError::SweepInUse {
                 setting: dir.to_path_buf(),
                 sweep,
@@ -106,8 +121,19 @@ impl FolderLock {
     }
 }
 
-/// The sweep folder whose setting `dir` is, if it is one.
+/// The sweep folder whose setting `dir` is, if it is one, however `dir`
+/// was written (relative, through `..` or a link).
 fn sweep_of(dir: &Path) -> Option<PathBuf> {
+    // The setting's folder may not be made yet; its sweep's is.
+    let dir = match dir.canonicalize() {
+        Ok(dir) => dir,
+        Err(_) => std::path::absolute(dir)
+            .ok()?
+            .parent()?
+            .canonicalize()
+            .ok()?
+            .join(dir.file_name()?),
+    };
     let settings = dir.parent()?;
     let sweep = settings.parent()?;
     (settings.file_name()? == "settings" && sweep.join(SWEEP).is_file())
@@ -171,6 +197,18 @@ mod tests {
         let through = FolderLock::hold_sweep_of(&setting).unwrap();
         assert!(through.is_some());
         assert!(matches!(FolderLock::hold(&sweep), Err(LockError::InUse(_))));
+        // Another setting, one not made yet, and one written through `..`,
+        // are held beside it: only the sweep itself is kept out.
+        let other = sweep.join("settings").join("not-made-yet");
+        let winding = sweep.join("settings/../settings/b");
+        for dir in [other, winding] {
+            assert!(
+                FolderLock::hold_sweep_of(&dir).unwrap().is_some(),
+                "{dir:?}"
+            );
+        }
+        drop(through);
+        FolderLock::hold(&sweep).unwrap();
         // A folder not inside a sweep's settings holds nothing more.
         assert!(FolderLock::hold_sweep_of(&sweep).unwrap().is_none());
     }

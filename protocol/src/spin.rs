@@ -1,8 +1,9 @@
 //! A bounded, adaptive spin before sleeping, as OpenMP's blocktime: a
 //! worker process, or an in-process evaluation thread, that has just
-//! finished some work polls for the next for a while before it blocks,
-//! because on a virtual machine waking a process whose CPU has gone idle
-//! costs 8–17 µs and more (docs/performance.md).
+//! finished some work polls for the next for a while before it blocks (and
+//! the coordinator, flying the share of the worker on its CPU, for the
+//! answers it waits for), because on a virtual machine waking a process
+//! whose CPU has gone idle costs 8–17 µs and more (docs/performance.md).
 //!
 //! Spinning is only worth it, and only allowed, where the spinner has a
 //! CPU of its own: the caller decides that and passes a zero budget

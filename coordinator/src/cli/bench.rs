@@ -89,8 +89,9 @@ pub struct BenchArgs {
     #[arg(long)]
     no_pin: bool,
     /// Microseconds an evaluation thread or a spawned worker with a CPU of
-    /// its own polls for its next work before sleeping, as `lander run
-    /// --spin-us` (0: never) [default: as `lander run`].
+    /// its own polls for its next work, and the coordinator standing in
+    /// for the worker on its CPU for answers, before sleeping, as `lander
+    /// run --spin-us` (0: never) [default: as `lander run`].
     #[arg(long, value_name = "MICROSECONDS", value_parser = clap::value_parser!(u64).range(0..=MAX_SPIN_US))]
     spin_us: Option<u64>,
     /// The worker-process modes check this share of answered chunks, 0 to

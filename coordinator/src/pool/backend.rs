@@ -276,6 +276,10 @@ impl<T: Transport> Evaluator for Pool<T> {
             },
         );
         self.stands_in = false;
+        if results.is_err() {
+            // Nothing of this step is waited for any more.
+            self.abandon_in_flight();
+        }
         let results = results?;
         if several {
             self.pace = Pace {

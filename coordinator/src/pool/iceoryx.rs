@@ -91,6 +91,10 @@ impl Transport for Iceoryx {
         "iceoryx2"
     }
 
+    fn answers_in_shared_memory(&self) -> bool {
+        true
+    }
+
     fn arrivals(&mut self) -> Result<Vec<Arrival>, EvalError> {
         let mut arrived = Vec::new();
         while let Some(sample) = self

@@ -55,6 +55,12 @@ pub trait Transport {
     fn farewell(&self) -> Duration {
         Duration::ZERO
     }
+    /// Whether answers arrive with no thread of this process to deliver
+    /// them (shared memory): only then may the coordinator poll for them
+    /// on its CPU before it sleeps (`Pool::spin_for_answers`).
+    fn answers_in_shared_memory(&self) -> bool {
+        false
+    }
     /// Tidies up when the pool ends.
     fn close(&mut self);
 }

@@ -12,11 +12,11 @@
 //! (`Pool::fly_a_share`); it flies so the share of the worker on its own
 //! CPU, which is sent no evaluation chunk ([`PoolOptions::stand_in`]), and
 //! there, with that CPU to itself, polls for answers for a bounded,
-//! adaptive time before it sleeps (`Pool::spin_for_answers`). A chunk whose worker dies (its process
-//! exits, its node is found dead, or its server disconnects) or misses its
-//! deadline goes back in the queue; a late duplicate is dropped
-//! by job id. Results are placed by chunk, so they are identical however the
-//! work was spread.
+//! adaptive time before it sleeps (`Pool::spin_for_answers`, iceoryx2
+//! only). A chunk whose worker dies (its process exits, its node is found
+//! dead, or its server disconnects) or misses its deadline goes back in
+//! the queue; a late duplicate is dropped by job id. Results are placed by
+//! chunk, so they are identical however the work was spread.
 //!
 //! The pool's unit of work is a [`Chunk`]; each time one is sent it goes
 //! as a job of the wire (a [`JobHeader`] under a fresh job id).
@@ -145,6 +145,9 @@ pub struct Pool<T: Transport> {
     taken_back: u64,
     /// Chunks the coordinator flew itself (`PoolOptions::share`).
     flown_here: u64,
+    /// Chunks handed out while the rest of their step was bred
+    /// (`Pool::hand_early`).
+    handed_early: u64,
     /// The coordinator's own time on the chunks it flew.
     busy_here: std::time::Duration,
     /// The CPU the thread running the pool's loop shares with the last

@@ -482,15 +482,23 @@ impl<T: Transport> Pool<T> {
     /// answers it waits for, for a bounded, adaptive time
     /// ([`PoolOptions::spin`](super::PoolOptions::spin), halved after
     /// each poll that finds none), before it sleeps, sparing the wake-up
-    /// that ends most steps. Returns whether an answer came.
+    /// that ends most steps. Only over a transport whose answers arrive
+    /// with no thread of this process to deliver them
+    /// ([`Transport::answers_in_shared_memory`]): a poll would otherwise
+    /// keep a CPU from the threads that deliver them. Returns whether
+    /// something came to see to: an answer, a link broken, a stop asked.
     fn spin_for_answers(&mut self) -> bool {
-        if !(0..self.links.len()).any(|i| self.stands_in_for(i)) {
+        if !self.transport.answers_in_shared_memory()
+            || !(0..self.links.len()).any(|i| self.stands_in_for(i))
+        {
             return false;
         }
         let mut spin = std::mem::replace(&mut self.answer_spin, Spin::new(Duration::ZERO));
         let came = spin.poll(|| {
             self.look_for_answers();
             !self.arrived.is_empty()
+                || self.links.iter().any(|l| l.is_broken())
+                || self.opts.stop.asked()
         });
         self.answer_spin = spin;
         came
@@ -512,7 +520,10 @@ impl<T: Transport> Pool<T> {
 
     /// Hands the last of `chunks`, just cut while the rest of its generation
     /// is still to be bred, to the next worker with room, round-robin, and
-    /// wakes a worker with the first such chunk it gets. The worker beside
+    /// wakes a worker with the first such chunk it gets, or with one found
+    /// holding nothing (it may have gone to sleep). The answers that
+    /// arrived are read first ([`Pool::look_for_answers`]), so that a
+    /// worker that answered all it held has room again. The worker beside
     /// the coordinator's thread gets none: it could fly them only once the
     /// coordinator stops breeding, while the others fly theirs meanwhile.
     /// Where none has room, the chunk waits for the hand-out.
@@ -537,6 +548,7 @@ impl<T: Transport> Pool<T> {
             return;
         }
         early.sent.push(chunk);
+        self.handed_early += 1;
         let id = self.links[i].id();
         let first = !early.woken.contains(&id);
         if first {
@@ -610,7 +622,12 @@ impl<T: Transport> Pool<T> {
     /// keeps them for the step's loop ([`Pool::collect`]): while the
     /// coordinator still breeds, their workers then have room again.
     fn look_for_answers(&mut self) {
-        for link in self.links.iter_mut().filter(|l| l.in_flight() > 0) {
+        // A link broken or refused is left for the loop to drop: what it
+        // holds goes elsewhere, and nothing more of it is read.
+        let refused = &self.refused;
+        let open =
+            |l: &&mut T::Link| l.in_flight() > 0 && !l.is_broken() && !refused.contains(&l.id());
+        for link in self.links.iter_mut().filter(open) {
             let polled = look(link);
             if !polled.2.is_empty() || polled.3.is_some() {
                 self.arrived.push(polled);

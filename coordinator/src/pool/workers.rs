@@ -56,6 +56,7 @@ impl<T: Transport> Pool<T> {
             next_job: 0,
             taken_back: 0,
             flown_here: 0,
+            handed_early: 0,
             busy_here: Duration::ZERO,
             told_waiting: false,
             arrived: Vec::new(),
