@@ -8,8 +8,9 @@
 //! - `RUST_LOG` filters, as `tracing-subscriber`'s `EnvFilter` reads it.
 //!   Unset, lander's own crates log at `info` and everything else,
 //!   zenoh among it, at `warn`, but for zenoh's warning at each failed
-//!   attempt to connect (a waiting worker says it once, itself) and its
-//!   warning that gossip, which lander turns off, is off.
+//!   attempt to connect and its error at each handshake refused (a
+//!   waiting worker says it once, itself) and its warning that gossip,
+//!   which lander turns off, is off.
 //!
 //! Progress bars are drawn on stderr too. Every bar is added to [`bars`],
 //! and each log line is written with the bars lifted (`suspend`), so
@@ -59,9 +60,12 @@ fn default_filter(quiet: bool) -> String {
     ]
     .iter()
     .fold("warn".to_string(), |f, c| format!("{f},{c}={ours}"))
-        // zenoh warns of every failed attempt to connect; a worker waiting
-        // for its coordinator retries, and says so itself, once.
+        // zenoh warns of every failed attempt to connect, and says
+        // zenoh's internals at every handshake refused (a wrong password);
+        // a worker waiting for its coordinator retries, and says so
+        // itself, once.
         + ",zenoh::net::runtime::orchestrator=error"
+        + ",zenoh_transport::unicast::establishment=off"
         // And at every coordinator's start, that gossip is off (lander
         // turns it off: its sessions meet by the addresses they are given,
         // through no region gateway).
@@ -188,6 +192,10 @@ mod tests {
         assert!(default_filter(true).contains("lander_worker=warn"));
         assert!(
             f.contains(",zenoh::net::runtime::orchestrator=error,"),
+            "{f}"
+        );
+        assert!(
+            f.contains(",zenoh_transport::unicast::establishment=off,"),
             "{f}"
         );
         assert!(f.ends_with(",zenoh::net::routing::hat::peer=error"), "{f}");

@@ -174,6 +174,8 @@ fn a_worker_with_wrong_credentials_is_refused_and_the_run_is_unaffected() {
     let stranger_log = dir.path().join("stranger.log");
     let stranger = zenoh_worker(&iox, &run_id, &ep)
         .args(["--credentials", bad.to_str().unwrap()])
+        // Its own log, as a user sees it.
+        .env_remove("RUST_LOG")
         .stderr(fs::File::create(&stranger_log).unwrap())
         .spawn()
         .unwrap();
@@ -199,6 +201,10 @@ fn a_worker_with_wrong_credentials_is_refused_and_the_run_is_unaffected() {
     let said = said();
     assert!(!said.contains("serving run"), "the stranger joined: {said}");
     assert!(refused, "{said}");
+    // Once, in its own words, not in zenoh's at every attempt.
+    assert!(said.contains("are the credentials right?"), "{said}");
+    assert_eq!(said.matches("cannot reach").count(), 1, "{said}");
+    assert!(!said.contains("OpenSyn"), "zenoh's internals: {said}");
 }
 
 /// How many jobs a worker said it answered as it left.

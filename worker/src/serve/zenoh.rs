@@ -57,7 +57,8 @@ fn connect(
                         Note::Warning,
                         &format!(
                             "cannot reach a coordinator at {}: {}; retrying \
-                             (is it running, and are the credentials right?)",
+                             (is it running, and are the credentials right? \
+                             RUST_LOG=info,zenoh_transport=error shows zenoh's reason)",
                             options.connect.join(", "),
                             net::tidy(&e.to_string())
                         ),
