@@ -201,13 +201,23 @@ fn assert_same_as_in_process(coordinator: Proc, dir: &Path) {
 
 /// `deploy/start-workers.sh` with `args`, using this build's worker.
 fn start_workers(name: &str, dir: &Path, args: &[&str]) -> Proc {
-    Proc::spawn(
-        name,
-        dir,
-        Command::new(deploy("start-workers.sh"))
-            .args(args)
-            .env("LANDER_WORKER", binary("lander-worker")),
-    )
+    use std::os::unix::process::CommandExt;
+    let mut script = Command::new(deploy("start-workers.sh"));
+    script
+        .args(args)
+        .env("LANDER_WORKER", binary("lander-worker"));
+    // Started as a terminal starts it: a test run from a background job
+    // (`cargo test &` without job control) inherits SIGINT ignored, and
+    // bash cannot trap a signal ignored on entry.
+    // SAFETY: between fork and exec the child only calls signal(2), which
+    // is async-signal-safe, and touches no memory of the parent's.
+    unsafe {
+        script.pre_exec(|| {
+            libc::signal(libc::SIGINT, libc::SIG_DFL);
+            Ok(())
+        });
+    }
+    Proc::spawn(name, dir, &mut script)
 }
 
 /// `start-workers.sh` starting two workers for `run_id` at `endpoint`,
