@@ -100,6 +100,23 @@ pub fn without_wall_time(mut v: Value) -> Value {
     v
 }
 
+/// `cmd`, started as a terminal starts a program: with SIGINT's default
+/// disposition. A test run from a background job (`cargo test &` without
+/// job control) inherits SIGINT ignored; then a program signalled before it
+/// installs its handlers, or a shell script (bash cannot trap a signal
+/// ignored on entry), never sees the SIGINT its test sends.
+pub fn as_from_a_terminal(cmd: &mut Command) -> &mut Command {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: between fork and exec the child only calls signal(2), which
+    // is async-signal-safe, and touches no memory of the parent's.
+    unsafe {
+        cmd.pre_exec(|| {
+            libc::signal(libc::SIGINT, libc::SIG_DFL);
+            Ok(())
+        })
+    }
+}
+
 pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
@@ -123,11 +140,13 @@ impl Iox {
         self.command_at(&binary(bin))
     }
 
-    /// A command for the executable at `exe` that uses this namespace.
+    /// A command for the executable at `exe` that uses this namespace,
+    /// started [as from a terminal](as_from_a_terminal).
     pub fn command_at(&self, exe: &Path) -> Command {
         let mut cmd = Command::new(exe);
         cmd.env("LANDER_IOX2_PREFIX", &self.prefix)
             .env("LANDER_IOX2_ROOT", self.root.path());
+        as_from_a_terminal(&mut cmd);
         cmd
     }
 

@@ -59,10 +59,12 @@ struct Proc {
 }
 
 impl Proc {
+    /// Starts `cmd` as from a terminal: a script's SIGINT trap works
+    /// however the test itself was started.
     fn spawn(name: &str, dir: &Path, cmd: &mut Command) -> Proc {
         let out = dir.join(format!("{name}.stdout"));
         let err = dir.join(format!("{name}.stderr"));
-        let child = cmd
+        let child = lander_tests::as_from_a_terminal(cmd)
             .stdin(Stdio::null())
             .stdout(fs::File::create(&out).unwrap())
             .stderr(fs::File::create(&err).unwrap())
@@ -201,23 +203,13 @@ fn assert_same_as_in_process(coordinator: Proc, dir: &Path) {
 
 /// `deploy/start-workers.sh` with `args`, using this build's worker.
 fn start_workers(name: &str, dir: &Path, args: &[&str]) -> Proc {
-    use std::os::unix::process::CommandExt;
-    let mut script = Command::new(deploy("start-workers.sh"));
-    script
-        .args(args)
-        .env("LANDER_WORKER", binary("lander-worker"));
-    // Started as a terminal starts it: a test run from a background job
-    // (`cargo test &` without job control) inherits SIGINT ignored, and
-    // bash cannot trap a signal ignored on entry.
-    // SAFETY: between fork and exec the child only calls signal(2), which
-    // is async-signal-safe, and touches no memory of the parent's.
-    unsafe {
-        script.pre_exec(|| {
-            libc::signal(libc::SIGINT, libc::SIG_DFL);
-            Ok(())
-        });
-    }
-    Proc::spawn(name, dir, &mut script)
+    Proc::spawn(
+        name,
+        dir,
+        Command::new(deploy("start-workers.sh"))
+            .args(args)
+            .env("LANDER_WORKER", binary("lander-worker")),
+    )
 }
 
 /// `start-workers.sh` starting two workers for `run_id` at `endpoint`,
