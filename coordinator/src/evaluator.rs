@@ -240,6 +240,13 @@ pub struct Busy {
     pub here: std::time::Duration,
 }
 
+impl Busy {
+    /// All the time spent flying, here and on the workers.
+    pub fn flying(&self) -> std::time::Duration {
+        self.workers + self.here
+    }
+}
+
 /// The threads on which a step of `batches` generations is best bred
 /// before it flies, all of them at once, a trial per thread: the
 /// evaluator's own ([`Evaluator::threads`]), where the step holds more than

@@ -191,10 +191,7 @@ impl<T: Transport> Evaluator for Pool<T> {
     }
 
     fn worker_busy(&self) -> Option<Busy> {
-        Some(Busy {
-            workers: self.busy,
-            here: self.busy_here,
-        })
+        Some(self.busy)
     }
 
     fn evaluate_many(
@@ -211,7 +208,7 @@ impl<T: Transport> Evaluator for Pool<T> {
         let several = batches.len() > 1 && batches.iter().any(|b| !b.is_bred());
         // Flying counts the coordinator's own chunks too: in place of the
         // worker on its CPU it flies that worker's share.
-        let busy = self.busy + self.busy_here;
+        let busy = self.busy.flying();
         let mut breeding = Duration::ZERO;
         if several && !self.pace.keeps_up(self.at_once(workers)) {
             breeding = breed_in_parallel(&mut batches);
@@ -284,7 +281,7 @@ impl<T: Transport> Evaluator for Pool<T> {
         if several {
             self.pace = Pace {
                 breeding,
-                flying: (self.busy + self.busy_here).saturating_sub(busy),
+                flying: self.busy.flying().saturating_sub(busy),
             };
         }
         let mut evaluations: Vec<Vec<Evaluation>> = batches

@@ -123,9 +123,15 @@ pub type IpcPool = Pool<iceoryx::Iceoryx>;
 /// The pool over zenoh, for workers on any host.
 pub type ZenohPool = Pool<zenoh::Zenoh>;
 
-/// What one look at a link found: its worker's id and pid, the answers
-/// that arrived, and why an answer was refused, if one was.
-type Polled = (u64, u32, Vec<Answer>, Option<String>);
+/// What one look at a link found.
+struct Polled {
+    /// Its worker's id and pid.
+    id: u64,
+    pid: u32,
+    answers: Vec<Answer>,
+    /// Why an answer was refused, if one was.
+    refused: Option<String>,
+}
 
 pub struct Pool<T: Transport> {
     opts: PoolOptions,
@@ -148,8 +154,6 @@ pub struct Pool<T: Transport> {
     /// Chunks handed out while the rest of their step was bred
     /// (`Pool::hand_early`).
     handed_early: u64,
-    /// The coordinator's own time on the chunks it flew.
-    busy_here: std::time::Duration,
     /// The CPU the thread running the pool's loop shares with the last
     /// worker, where there is a worker on every CPU (`Placement`).
     beside: Option<usize>,
@@ -175,8 +179,9 @@ pub struct Pool<T: Transport> {
     answer_spin: lander_protocol::spin::Spin,
     /// Kept only when asked for, so long runs do not accumulate them.
     timings: Option<Vec<ChunkTiming>>,
-    /// The workers' own time on every chunk answered, summed.
-    busy: std::time::Duration,
+    /// The workers' own time on every chunk answered, summed, and the
+    /// coordinator's on the chunks it flew itself.
+    busy: crate::evaluator::Busy,
     /// What the last step of several batches cost to breed and to fly.
     pace: backend::Pace,
     /// The host each connected worker announced, by worker id.

@@ -50,10 +50,15 @@ pub(super) fn chunk_ranges(n: usize, parts: usize, workers: usize) -> Vec<Range<
     ranges
 }
 
-/// One look at `link`'s answers, with its worker's id and pid.
+/// One look at `link`'s answers.
 fn look(link: &mut impl WorkerLink) -> Polled {
     let (answers, refused) = link.poll();
-    (link.id(), link.pid(), answers, refused)
+    Polled {
+        id: link.id(),
+        pid: link.pid(),
+        answers,
+        refused,
+    }
 }
 
 /// The chunks a generation handed out while it was bred
@@ -317,13 +322,19 @@ impl<T: Transport> Pool<T> {
         let mut fresh = Vec::new();
         let mut polled = std::mem::take(&mut self.arrived);
         polled.extend(self.links.iter_mut().map(look));
-        for (id, pid, answers, refused) in polled {
+        for Polled {
+            id,
+            pid,
+            answers,
+            refused,
+        } in polled
+        {
             if let Some(e) = refused {
                 let who = self.worker_ref(id, pid);
                 self.refuse(id, who, format!("a result: {e}"));
             }
             for a in answers {
-                self.busy += a.timing.compute();
+                self.busy.workers += a.timing.compute();
                 if let Some(m) = self.telemetry.metrics() {
                     m.round_trip(a.timing.round_trip());
                 }
@@ -421,7 +432,7 @@ impl<T: Transport> Pool<T> {
         // Without a worker yet the chunks wait for workers, not for room:
         // a run's one Q(λ) trial goes to its worker, not to the
         // coordinator that started before it.
-        let share = self.opts.share || (0..self.links.len()).any(|i| self.stands_in_for(i));
+        let share = self.opts.share || self.stands_in_for_any();
         if !share || !check.shares || self.links.is_empty() {
             return false;
         }
@@ -452,7 +463,7 @@ impl<T: Transport> Pool<T> {
         // where the thread's CPU clock would cost a system call a chunk.
         let started = Instant::now();
         let flown = (check.here)(chunk);
-        self.busy_here += started.elapsed();
+        self.busy.here += started.elapsed();
         match flown {
             Ok(value) => {
                 finished(chunk, &value);
@@ -488,9 +499,7 @@ impl<T: Transport> Pool<T> {
     /// keep a CPU from the threads that deliver them. Returns whether
     /// something came to see to: an answer, a link broken, a stop asked.
     fn spin_for_answers(&mut self) -> bool {
-        if !self.transport.answers_in_shared_memory()
-            || !(0..self.links.len()).any(|i| self.stands_in_for(i))
-        {
+        if !self.transport.answers_in_shared_memory() || !self.stands_in_for_any() {
             return false;
         }
         let mut spin = std::mem::replace(&mut self.answer_spin, Spin::new(Duration::ZERO));
@@ -516,6 +525,12 @@ impl<T: Transport> Pool<T> {
             && self
                 .children
                 .beside_coordinator(ChildId::of(&self.links[i]))
+    }
+
+    /// Whether the coordinator flies in place of any worker
+    /// ([`Pool::stands_in_for`]).
+    fn stands_in_for_any(&self) -> bool {
+        (0..self.links.len()).any(|i| self.stands_in_for(i))
     }
 
     /// Hands the last of `chunks`, just cut while the rest of its generation
@@ -629,7 +644,7 @@ impl<T: Transport> Pool<T> {
             |l: &&mut T::Link| l.in_flight() > 0 && !l.is_broken() && !refused.contains(&l.id());
         for link in self.links.iter_mut().filter(open) {
             let polled = look(link);
-            if !polled.2.is_empty() || polled.3.is_some() {
+            if !polled.answers.is_empty() || polled.refused.is_some() {
                 self.arrived.push(polled);
             }
         }
