@@ -94,8 +94,20 @@ pub fn fail<E: Debug>(what: impl Into<String>) -> impl FnOnce(E) -> IpcError {
 
 /// The explicit configuration every process of a run uses. Passing one
 /// also keeps iceoryx2's "No config file was loaded" warning away.
+///
+/// A port keeps room for connections whose other end has gone with data
+/// unread; iceoryx2's default, 128 of them, is set up page by page as
+/// every port is made, a cost each worker pays as it starts. A worker's
+/// service has one server and two clients at most, and a worker gone
+/// with its announcement unread needs no answer.
 pub fn config() -> Result<Config, IpcError> {
     let mut config = Config::default();
+    let defaults = &mut config.defaults;
+    defaults.request_response.client_expired_connection_buffer = 2;
+    defaults.request_response.server_expired_connection_buffer = 2;
+    defaults
+        .publish_subscribe
+        .subscriber_expired_connection_buffer = 8;
     let prefix = std::env::var(PREFIX_ENV).unwrap_or_else(|_| DEFAULT_PREFIX.into());
     config.global.prefix =
         FileName::new(prefix.as_bytes()).map_err(fail(format!("{PREFIX_ENV}={prefix}")))?;
@@ -257,6 +269,10 @@ pub fn run_exists(names: &RunNames, config: &Config) -> Result<bool, IpcError> {
 }
 
 /// A worker's evaluation service, one server (the worker) and one client.
+/// Each job has one answer, so a client holds one response per request:
+/// the connection that carries them is sized by that count times every
+/// segment the answers' dynamic data segment may grow to, and set up page
+/// by page as the worker starts (0.8 MB; 2.5 MB with iceoryx2's defaults).
 pub fn eval_service(node: &Node<ipc::Service>, name: &str) -> Result<EvalService, IpcError> {
     node.service_builder(&service_name(name)?)
         .request_response::<[WireGene], [u8]>()
@@ -266,7 +282,8 @@ pub fn eval_service(node: &Node<ipc::Service>, name: &str) -> Result<EvalService
         .max_clients(2)
         .max_nodes(4)
         .max_active_requests_per_client(MAX_QUEUED)
-        .max_response_buffer_size(MAX_QUEUED)
+        .max_response_buffer_size(1)
+        .max_borrowed_responses_per_pending_response(1)
         .max_loaned_requests(MAX_QUEUED)
         .enable_safe_overflow_for_responses(false)
         .open_or_create()

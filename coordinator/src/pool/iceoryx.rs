@@ -122,12 +122,12 @@ impl Transport for Iceoryx {
         Link::open(&self.node, &self.names, a.id, a.pid).map_err(|e| e.to_string())
     }
 
-    /// Opens the worker's services and its client now. Opening a client
-    /// sets up its connections' shared memory (iceoryx2 sizes it for every
-    /// segment a dynamic data segment may grow to), about 4 ms of the
-    /// coordinator's CPU where the worker's server is there first; where
-    /// the client is there first, the worker's server sets them up as it
-    /// starts, on its own CPU, and the client later opens them. A link
+    /// Opens the worker's services and its client now. A connection's
+    /// shared memory is set up by whichever end comes second, page by
+    /// page (iceoryx2 sizes it for every segment a dynamic data segment
+    /// may grow to: 0.8 MB for a worker's answers, `iox::eval_service`):
+    /// with the client there first, the worker's server sets it up as it
+    /// starts, on its own CPU, and the client later opens it. A link
     /// that fails to open here is opened again when the worker announces
     /// itself.
     fn expect(&mut self, id: u64) {

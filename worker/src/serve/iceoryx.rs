@@ -71,6 +71,8 @@ fn serve_on(
     let server = eval
         .server_builder()
         .initial_max_slice_len(4096)
+        // One answer a job (`iox::eval_service`).
+        .max_loaned_responses_per_request(1)
         .allocation_strategy(AllocationStrategy::PowerOfTwo)
         .create()
         .map_err(iox::fail("creating the evaluation server"))?;
