@@ -75,6 +75,10 @@ pub enum Event {
     RunFinished,
     /// By SIGINT or SIGTERM; the run can be resumed.
     RunInterrupted,
+    /// Stopped by an error, as the command reports it on stderr.
+    RunFailed {
+        error: String,
+    },
     WorkerJoined {
         #[serde(flatten)]
         worker: WorkerRef,
@@ -120,6 +124,7 @@ impl fmt::Display for Event {
             Event::RunStarted { command } => write!(f, "{command} started"),
             Event::RunFinished => write!(f, "run finished"),
             Event::RunInterrupted => write!(f, "run interrupted"),
+            Event::RunFailed { error } => write!(f, "run failed: {error}"),
             Event::WorkerJoined { worker: w } => {
                 write!(
                     f,
@@ -365,6 +370,19 @@ mod tests {
             m.contains("lander_chunks_redispatched_total{cause=\"exited\"} 3"),
             "{m}"
         );
+    }
+
+    #[test]
+    fn a_failed_run_says_why() {
+        let dir = tempfile::tempdir().unwrap();
+        let t = Telemetry::new("r", None);
+        t.record_to(dir.path()).unwrap();
+        t.event(Event::RunFailed {
+            error: "no workers left".into(),
+        });
+        let lines = read(dir.path()).unwrap();
+        assert_eq!(lines[0]["event"], "run_failed");
+        assert_eq!(lines[0]["error"], "no workers left");
     }
 
     #[test]

@@ -430,6 +430,13 @@ fn spawned_workers_that_never_join_end_the_run_with_an_error() {
         started.elapsed() < std::time::Duration::from_secs(30),
         "{said}"
     );
+    // One watching the folder learns how the run ended, and why.
+    let events = json_lines(&dir.path().join("out").join("events.jsonl"));
+    let last = events.last().expect("no events recorded");
+    assert_eq!(last["event"], "run_failed", "{events:?}");
+    let error = last["error"].as_str().unwrap_or_default();
+    assert!(error.contains("respawns allowed are used up"), "{error}");
+    assert!(said.contains(error), "{error} is not what was said: {said}");
 }
 
 #[test]

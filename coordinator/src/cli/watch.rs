@@ -74,14 +74,16 @@ impl Watch {
     }
 
     /// Tells how the run ended: finished, interrupted (and resumable), or
-    /// stopped by an error, which the error itself reports. Then lets go
-    /// of the folder.
+    /// failed, with the error as the command reports it. Then lets go of
+    /// the folder.
     pub fn end<T>(&self, result: &anyhow::Result<T>, interrupted: bool) {
-        match (result, interrupted) {
-            (Ok(_), _) => self.telemetry.event(Event::RunFinished),
-            (Err(_), true) => self.telemetry.event(Event::RunInterrupted),
-            (Err(_), false) => {}
-        }
+        self.telemetry.event(match (result, interrupted) {
+            (Ok(_), _) => Event::RunFinished,
+            (Err(_), true) => Event::RunInterrupted,
+            (Err(e), false) => Event::RunFailed {
+                error: format!("{e:#}"),
+            },
+        });
         self.keep(None);
     }
 }
