@@ -465,3 +465,58 @@ fn a_qlearning_run_on_workers_killed_resumes_from_its_last_leg() {
         assert_nothing_left(&iox);
     }
 }
+
+/// A Q(λ) checkpoint whole and checksummed, but of a trial its own
+/// configuration could not have reached, is refused naming the file and
+/// the fault, in-process and on workers alike (where the pool's own
+/// checks would otherwise speak first, less clearly), before anything in
+/// the folder is touched.
+#[test]
+fn a_qlearning_checkpoint_that_does_not_fit_is_refused_before_the_folder_is_touched() {
+    use lander_coordinator::checkpoint::{self, Checkpoint, Saved};
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = lander_coordinator::config::RunConfig {
+        method: lander_model::Method::Qlearning,
+        ..Default::default()
+    };
+    config.qlearning.episodes = 500;
+    let state = lander_model::learn::LearnState {
+        episodes: 600,
+        rng_word: 0,
+        first_safe: None,
+        recent: Vec::new(),
+        weights: Vec::new(),
+    };
+    checkpoint::save(
+        dir.path(),
+        &Checkpoint {
+            config,
+            state: Saved::Learning(state),
+        },
+    )
+    .unwrap();
+    let before: Vec<_> = fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    let saved = fs::read(dir.path().join("checkpoint.bin")).unwrap();
+    let iox = Iox::new("ckpt_unfit");
+    let d = dir.path().to_str().unwrap();
+    for extra in [&[][..], &["--workers", "1"][..]] {
+        let mut a = vec!["run", "--resume", d];
+        a.extend_from_slice(extra);
+        let run = iox.lander(&a);
+        assert!(!run.status.success(), "{extra:?}");
+        let err = stderr(&run);
+        assert!(
+            err.contains("checkpoint.bin: the saved trial does not fit its configuration: 600 episodes flown of a trial of 500"),
+            "{extra:?}: {err}"
+        );
+        let after: Vec<_> = fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        assert_eq!(after, before, "{extra:?}: the folder changed");
+        assert_eq!(fs::read(dir.path().join("checkpoint.bin")).unwrap(), saved);
+    }
+}

@@ -55,7 +55,7 @@ pub fn learn(
             // during the first leg.
             let start = run.state();
             save(cfg, out, &start)?;
-            on_workers(cfg, out, start, log, pool, every)?
+            on_workers(cfg, out, leg(cfg, Some(start), every), log, pool, every)?
         }
     };
     finish(cfg, out, json, &training, started)
@@ -76,44 +76,69 @@ fn save(cfg: &RunConfig, out: &Path, state: &LearnState) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `lander run --resume DIR` of a Q(λ) trial saved at `state`: its log cut
-/// back to the checkpoint, and on to the end, in-process or in legs on
-/// `pool`.
+/// A saved Q(λ) trial ready to go on: its run here, or its next leg and
+/// the pool to fly it.
+// One is made a command: the variants' sizes cost nothing.
+#[allow(clippy::large_enum_variant)]
+pub enum Resumable {
+    Here(LearnRun),
+    OnWorkers(TrainJob, Box<dyn Backend>),
+}
+
+/// The trial saved in `dir` at `state`, ready to go on in-process (`pool`
+/// `None`) or on `pool`: refused, naming the checkpoint, if it does not
+/// fit its configuration, and if `pool` could not train its next leg;
+/// asked before the run's folder is touched.
+pub fn resumable(
+    cfg: &RunConfig,
+    dir: &Path,
+    state: LearnState,
+    pool: Option<Box<dyn Backend>>,
+    every: u64,
+) -> anyhow::Result<Resumable> {
+    let unfit = |e: String| {
+        anyhow::anyhow!(
+            "{}: the saved trial does not fit its configuration: {e}",
+            dir.join(checkpoint::FILE).display()
+        )
+    };
+    let Some(pool) = pool else {
+        let run = LearnRun::resume(&cfg.env(0), &cfg.guided, &cfg.qlearning, key(cfg), &state);
+        return run.map(Resumable::Here).map_err(unfit);
+    };
+    // Checked here: a worker would refuse it less clearly. The state goes
+    // into the leg as it is, not copied: it may hold millions of weights.
+    state.check(&cfg.qlearning).map_err(unfit)?;
+    let next = leg(cfg, Some(state), every);
+    pool.can_train(std::slice::from_ref(&next))?;
+    Ok(Resumable::OnWorkers(next, pool))
+}
+
+/// `lander run --resume DIR` of a Q(λ) trial ([`resumable`]): its log cut
+/// back to the checkpoint, and on to the end, in-process or in legs on a
+/// pool.
 pub fn resume(
     cfg: &RunConfig,
     dir: &Path,
     json: bool,
-    state: &LearnState,
-    pool: Option<Box<dyn Backend>>,
+    trial: Resumable,
     every: u64,
     stop: &Stop,
 ) -> anyhow::Result<()> {
-    // Checked here for both: a worker would refuse it less clearly.
-    let run = LearnRun::resume(&cfg.env(0), &cfg.guided, &cfg.qlearning, key(cfg), state).map_err(
-        |e| {
-            anyhow::anyhow!(
-                "{}: the saved trial does not fit its configuration: {e}",
-                dir.join(checkpoint::FILE).display()
-            )
-        },
-    )?;
+    let episodes = match &trial {
+        Resumable::Here(run) => run.training().episodes,
+        Resumable::OnWorkers(next, _) => next.from.as_ref().map_or(0, |s| s.episodes),
+    };
     // A trial saved at its start (on workers) may have no log yet.
-    let log = match state.episodes {
+    let log = match episodes {
         0 => RunLog::create(dir, EPISODES)?,
         n => RunLog::resume(dir, EPISODES, u64::from(n))?,
     };
-    tracing::info!(
-        "resuming {} after episode {}",
-        dir.display(),
-        state.episodes
-    );
+    tracing::info!("resuming {} after episode {episodes}", dir.display());
     let started = Instant::now();
-    let training = match pool {
-        None => in_process(cfg, dir, run, log, every, stop)?,
-        Some(pool) => {
-            drop(run);
-            on_workers(cfg, dir, state.clone(), log, pool, every)?
-        }
+    let training = match trial {
+        Resumable::Here(run) => in_process(cfg, dir, run, log, every, stop)?,
+        Resumable::OnWorkers(next, pool) => on_workers(cfg, dir, next, log, pool, every)?,
     };
     finish(cfg, dir, json, &training, started)
 }
@@ -165,23 +190,22 @@ fn in_process(
     Ok(run.training())
 }
 
-/// The trial's episodes after `from`, in legs on the pool that end at
-/// multiples of `every` (one leg to the end for 0): each leg's episodes
+/// The trial's episodes from leg `next` on, in legs on the pool that end
+/// at multiples of `every` (one leg to the end for 0): each leg's episodes
 /// are logged and the trial's state saved when the leg returns.
 fn on_workers(
     cfg: &RunConfig,
     out: &Path,
-    from: LearnState,
+    next: TrainJob,
     mut log: RunLog,
     mut pool: Box<dyn Backend>,
     every: u64,
 ) -> anyhow::Result<Training> {
     let bar = bar(cfg);
-    let mut from = Some(from);
+    let mut job = next;
     loop {
-        let start = from.as_ref().map_or(0, |s| s.episodes);
+        let start = job.from.as_ref().map_or(0, |s| s.episodes);
         bar.set_position(u64::from(start));
-        let job = leg(cfg, from.take(), every);
         // Refused before it starts, a leg leaves nothing to resume.
         pool.can_train(std::slice::from_ref(&job))?;
         let result = pool
@@ -201,7 +225,7 @@ fn on_workers(
         match result.state {
             Some(state) => {
                 save(cfg, out, &state)?;
-                from = Some(state);
+                job = leg(cfg, Some(state), every);
             }
             None => {
                 bar.finish_and_clear();
@@ -211,18 +235,12 @@ fn on_workers(
     }
 }
 
-/// Refuses a trial whose first leg from `from` (its start, where `None`)
-/// `pool` could not train, such as one whose state cannot travel: asked
-/// before the run's folder is touched, so that a refused run leaves
-/// nothing behind to resume or to clear.
-pub fn can_start(
-    cfg: &RunConfig,
-    pool: Option<&dyn Backend>,
-    from: Option<&LearnState>,
-    every: u64,
-) -> anyhow::Result<()> {
+/// Refuses a trial whose first leg `pool` could not train, such as one
+/// whose state cannot travel: asked before the run's folder is touched,
+/// so that a refused run leaves nothing behind to resume or to clear.
+pub fn can_start(cfg: &RunConfig, pool: Option<&dyn Backend>, every: u64) -> anyhow::Result<()> {
     if let Some(pool) = pool {
-        pool.can_train(std::slice::from_ref(&leg(cfg, from.cloned(), every)))?;
+        pool.can_train(std::slice::from_ref(&leg(cfg, None, every)))?;
     }
     Ok(())
 }

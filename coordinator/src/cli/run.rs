@@ -142,7 +142,7 @@ fn start(args: &RunArgs, watch: &Watch, stop: &Stop) -> anyhow::Result<()> {
     if cfg.method == Method::Qlearning {
         let pool = args.transport.pool(&watch.telemetry, stop)?;
         let every = args.checkpoint_every(cfg.method);
-        super::learning::can_start(&cfg, pool.as_deref(), None, every)?;
+        super::learning::can_start(&cfg, pool.as_deref(), every)?;
         watch.keep(Some(prepare(&out, held)?));
         watch.begin(&out, "run")?;
         return counted(watch, &cfg, || {
@@ -189,10 +189,10 @@ fn resume(args: &RunArgs, dir: &Path, watch: &Watch, stop: &Stop) -> anyhow::Res
         Saved::Learning(state) => {
             let pool = args.transport.pool(&watch.telemetry, stop)?;
             let every = args.checkpoint_every(cfg.method);
-            super::learning::can_start(&cfg, pool.as_deref(), Some(&state), every)?;
+            let trial = super::learning::resumable(&cfg, dir, state, pool, every)?;
             watch.begin(dir, "run --resume")?;
             return counted(watch, &cfg, || {
-                super::learning::resume(&cfg, dir, args.json, &state, pool, every, stop)
+                super::learning::resume(&cfg, dir, args.json, trial, every, stop)
             });
         }
     };
