@@ -203,6 +203,19 @@ pub trait Evaluator {
     fn evaluate_many(&mut self, batches: Vec<Batch<'_>>)
         -> Result<Vec<Vec<Evaluation>>, EvalError>;
 
+    /// [`Evaluator::evaluate_many`] over batches made as they are taken, in
+    /// order: making one may take work (an experiment's trial first takes
+    /// in its last generation), which an evaluator that hands batches out
+    /// one by one does while its workers fly those before it. Returns one
+    /// list of evaluations per batch taken. Takes them all first, unless
+    /// the evaluator says otherwise.
+    fn evaluate_each<'a>(
+        &mut self,
+        batches: &mut dyn Iterator<Item = Batch<'a>>,
+    ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
+        self.evaluate_many(batches.collect())
+    }
+
     /// This process's threads for other work between evaluations, such as
     /// breeding the next generations of the trials in flight: the
     /// evaluation threads themselves, where there are any, so that two sets

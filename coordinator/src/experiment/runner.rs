@@ -1,6 +1,8 @@
 //! Runs trials on one [`Backend`]: the GA trials stepped together, a
 //! generation of each per round, so that every core stays busy even with
-//! small populations; then the Q(λ) trials, one job each. A task is a trial's
+//! small populations (on a pool, each trial taking in its last generation
+//! as the pool asks for its next: `step_each`); then the Q(λ) trials, one
+//! job each. A task is a trial's
 //! configuration under a key of the caller's (an experiment's [`TrialId`], or
 //! a sweep's setting and trial), so one workload can hold many experiments.
 
@@ -126,6 +128,20 @@ struct Running<K> {
     run: TrialRun,
     log: Vec<Generation>,
     started: Instant,
+    /// Its last generation's evaluations, while the trial has not yet
+    /// taken them in (`step_each`).
+    flown: Option<Vec<Evaluation>>,
+}
+
+impl<K: Copy> Running<K> {
+    /// Takes in the trial's last generation, if it has not yet.
+    fn take_in(&mut self, progress: &mut dyn Progress<K>) {
+        if let Some(evaluations) = self.flown.take() {
+            let generation = self.run.accept(&evaluations);
+            progress.generation(self.key, &generation);
+            self.log.push(generation);
+        }
+    }
 }
 
 /// The most GA trials in flight, and the most genes their generations hold.
@@ -143,6 +159,9 @@ fn evolve<K: Copy + Send>(
 ) -> Result<(), ExperimentError> {
     let mut queue = tasks.iter().peekable();
     let mut running: Vec<Running<K>> = Vec::new();
+    // Where the evaluator has threads of its own, a step's trials are
+    // bred on them, together; elsewhere each is made as it is handed out.
+    let together = backend.threads().is_some();
     loop {
         let mut held: usize = running.iter().map(|r| r.run.config().ga.genes()).sum();
         while running.len() < most.trials {
@@ -157,27 +176,16 @@ fn evolve<K: Copy + Send>(
                 run: TrialRun::new(&task.cfg)?,
                 log: Vec::new(),
                 started: Instant::now(),
+                flown: None,
             });
         }
         if running.is_empty() {
             return Ok(());
         }
-        let batches = running.iter_mut().map(|r| r.run.batch()).collect();
-        let evaluations = backend.evaluate_many(batches)?;
-        let generations = match breeds_first(backend, running.len()) {
-            Some(threads) => threads.install(|| accept_and_breed(&mut running, &evaluations)),
-            // A single trial's next generation is bred as it flies, and a
-            // pool breeds each trial's as it hands it out, its workers
-            // flying the first chunks meanwhile.
-            None => running
-                .iter_mut()
-                .zip(&evaluations)
-                .map(|(r, evaluations)| r.run.accept(evaluations))
-                .collect(),
-        };
-        for (r, generation) in running.iter_mut().zip(generations) {
-            progress.generation(r.key, &generation);
-            r.log.push(generation);
+        if together {
+            step_together(&mut running, backend, progress)?;
+        } else {
+            step_each(&mut running, backend, progress)?;
         }
         let mut i = 0;
         while i < running.len() {
@@ -192,6 +200,60 @@ fn evolve<K: Copy + Send>(
             }
         }
     }
+}
+
+/// Flies a generation of every running trial, then takes each in and, on
+/// the evaluator's threads where there are several trials, breeds the
+/// next.
+fn step_together<K: Copy + Send>(
+    running: &mut [Running<K>],
+    backend: &mut dyn Evaluator,
+    progress: &mut dyn Progress<K>,
+) -> Result<(), ExperimentError> {
+    let batches = running.iter_mut().map(|r| r.run.batch()).collect();
+    let evaluations = backend.evaluate_many(batches)?;
+    let generations = match breeds_first(backend, running.len()) {
+        Some(threads) => threads.install(|| accept_and_breed(running, &evaluations)),
+        // A single trial's next generation is bred as it flies.
+        None => running
+            .iter_mut()
+            .zip(&evaluations)
+            .map(|(r, evaluations)| r.run.accept(evaluations))
+            .collect(),
+    };
+    for (r, generation) in running.iter_mut().zip(generations) {
+        progress.generation(r.key, &generation);
+        r.log.push(generation);
+    }
+    Ok(())
+}
+
+/// Flies a generation of every running trial that goes on, each trial
+/// taking in its last generation only as the evaluator asks for its next
+/// (a pool asks as it hands the step out, breeding each trial's
+/// generation chunk by chunk, so that its workers fly the first trials'
+/// while the rest are taken in). A trial that ends there flies no more;
+/// the others keep their evaluations for the next step.
+fn step_each<K: Copy>(
+    running: &mut [Running<K>],
+    backend: &mut dyn Evaluator,
+    progress: &mut dyn Progress<K>,
+) -> Result<(), ExperimentError> {
+    let mut flying = Vec::new();
+    let mut batches = running.iter_mut().enumerate().filter_map(|(i, r)| {
+        r.take_in(progress);
+        if r.run.result().is_some() {
+            return None;
+        }
+        flying.push(i);
+        Some(r.run.batch())
+    });
+    let evaluations = backend.evaluate_each(&mut batches)?;
+    drop(batches);
+    for (i, evaluations) in flying.into_iter().zip(evaluations) {
+        running[i].flown = Some(evaluations);
+    }
+    Ok(())
 }
 
 /// Scores each running trial's generation and breeds its next, on the
@@ -338,7 +400,7 @@ pub fn learning_record(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::evaluator::InProcess;
+    use crate::evaluator::{Batch, InProcess};
 
     const SMALL: &str = "name = \"s\"\ntrials = 3\nmethods = [\"ga\", \"guided\"]\n\
         [ga]\npopulation = 12\ngenome_length = 10\nmax_generations = 4\nmax_restarts = 1\n";
@@ -369,15 +431,43 @@ mod tests {
         }
     }
 
+    /// An evaluator with no threads of its own that flies each batch as
+    /// soon as it takes it, as a pool hands a step out: each trial takes
+    /// in its last generation only once the trials before it have flown.
+    struct OneByOne(InProcess);
+
+    impl Evaluator for OneByOne {
+        fn drive(&mut self, work: &mut (dyn FnMut(&mut dyn Evaluator) + Send)) {
+            work(self)
+        }
+
+        fn evaluate_many(
+            &mut self,
+            batches: Vec<Batch<'_>>,
+        ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
+            self.0.evaluate_many(batches)
+        }
+
+        fn evaluate_each<'a>(
+            &mut self,
+            batches: &mut dyn Iterator<Item = Batch<'a>>,
+        ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
+            batches.map(|b| self.0.evaluate(b)).collect()
+        }
+    }
+
     fn evolved(genes: usize) -> Watch {
+        evolved_on(&mut InProcess::new(2).unwrap(), genes)
+    }
+
+    fn evolved_on(backend: &mut dyn Evaluator, genes: usize) -> Watch {
         let exp: Experiment = toml::from_str(SMALL).unwrap();
         exp.validate().unwrap();
         let tasks = experiment_tasks(&exp, &trials(&exp));
         let tasks: Vec<&Task<TrialId>> = tasks.iter().collect();
-        let mut backend = InProcess::new(2).unwrap();
         let mut watch = Watch::default();
         let most = InFlight { trials: 8, genes };
-        evolve(&tasks, &mut backend, most, &mut watch).unwrap();
+        evolve(&tasks, backend, most, &mut watch).unwrap();
         watch
             .records
             .sort_by_key(|(id, _)| (id.trial, id.method.name()));
@@ -395,6 +485,19 @@ mod tests {
             assert_eq!(bound.most, most, "{genes} genes");
             assert!(
                 bound.records == free.records,
+                "{genes} genes: other results"
+            );
+        }
+    }
+
+    #[test]
+    fn trials_made_as_the_evaluator_takes_them_end_as_when_stepped_together() {
+        let together = evolved(MAX_GENES_IN_FLIGHT);
+        for genes in [MAX_GENES_IN_FLIGHT, 250, 50] {
+            let each = evolved_on(&mut OneByOne(InProcess::new(1).unwrap()), genes);
+            assert_eq!(each.records.len(), 6, "{genes} genes");
+            assert!(
+                each.records == together.records,
                 "{genes} genes: other results"
             );
         }

@@ -196,21 +196,37 @@ impl<T: Transport> Evaluator for Pool<T> {
 
     fn evaluate_many(
         &mut self,
-        mut batches: Vec<Batch<'_>>,
+        batches: Vec<Batch<'_>>,
+    ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
+        self.evaluate_each(&mut batches.into_iter())
+    }
+
+    /// Takes each batch as it comes to hand it out, so that the work of
+    /// making the next (an experiment's trial taking in its last
+    /// generation) is done while the workers fly the chunks before it.
+    fn evaluate_each<'a>(
+        &mut self,
+        next: &mut dyn Iterator<Item = Batch<'a>>,
     ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
         // Before any chunk goes out early, as before the hand-out.
         self.await_first_workers()?;
         // A coordinator that flies a share counts as one more worker.
         let workers = self.links.len().max(self.opts.spawn).max(1) + usize::from(self.opts.share);
         // About `chunks_per_worker` chunks per worker in all, however many
-        // batches share them.
-        let per_batch = (workers * self.opts.chunks_per_worker).div_ceil(batches.len().max(1));
-        let several = batches.len() > 1 && batches.iter().any(|b| !b.is_bred());
+        // batches share them: as many as may come.
+        let (least, most) = next.size_hint();
+        let coming = most.unwrap_or(least).max(1);
+        let per_batch = (workers * self.opts.chunks_per_worker).div_ceil(coming);
         // Flying counts the coordinator's own chunks too: in place of the
         // worker on its CPU it flies that worker's share.
         let busy = self.busy.flying();
         let mut breeding = Duration::ZERO;
-        if several && !self.pace.keeps_up(self.at_once(workers)) {
+        let mut batches: Vec<Batch<'a>> = Vec::with_capacity(coming);
+        // Whether a batch of the step was still to be bred.
+        let mut unbred = false;
+        if coming > 1 && !self.pace.keeps_up(self.at_once(workers)) {
+            batches.extend(&mut *next);
+            unbred = batches.iter().any(|b| !b.is_bred());
             breeding = breed_in_parallel(&mut batches);
         }
         let cutting = thread_cpu_time();
@@ -219,11 +235,17 @@ impl<T: Transport> Evaluator for Pool<T> {
         let mut spans = Vec::new();
         // Chunks handed out while the rest of their generation was bred.
         let mut early = Early::default();
-        for (b, batch) in batches.iter_mut().enumerate() {
+        for b in 0.. {
+            if b == batches.len() {
+                let Some(batch) = next.next() else { break };
+                batches.push(batch);
+            }
+            let batch = &mut batches[b];
             // A generation not bred yet is bred here, chunk by chunk, each
             // chunk going out as soon as it is bred: a worker flies it
             // while the coordinator breeds the next.
-            let unbred = !batch.is_bred();
+            let bred_here = !batch.is_bred();
+            unbred |= bred_here;
             let length = batch.bred_up_to(1).first().map_or(0, Vec::len);
             for range in chunk_ranges(batch.len(), parts(batch.len(), length, per_batch), workers) {
                 let genomes = &batch.bred_up_to(range.end)[range.clone()];
@@ -234,7 +256,7 @@ impl<T: Transport> Evaluator for Pool<T> {
                 }
                 chunks.push(chunk_of(batch, range.clone(), length));
                 spans.push((b, range, length, batch.pass));
-                if unbred {
+                if bred_here {
                     self.hand_early(&chunks, &mut early);
                 }
             }
@@ -278,7 +300,7 @@ impl<T: Transport> Evaluator for Pool<T> {
             self.abandon_in_flight();
         }
         let results = results?;
-        if several {
+        if unbred && batches.len() > 1 {
             self.pace = Pace {
                 breeding,
                 flying: self.busy.flying().saturating_sub(busy),
