@@ -166,6 +166,8 @@ pub enum EvalError {
     },
     #[error("the genomes of a generation differ in length")]
     Ragged,
+    #[error("the evaluator answered {answered} of the {taken} batches it took")]
+    Miscounted { taken: usize, answered: usize },
     #[error("zenoh: {0}")]
     Net(String),
     #[error("stopped by SIGINT or SIGTERM")]

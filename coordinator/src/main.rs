@@ -28,23 +28,13 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         // Whoever read stdout stopped reading (`lander guide ... | head`):
         // what it took was what it wanted, and the run's files are written.
-        Err(e) if closed_pipe(&e) => ExitCode::SUCCESS,
+        Err(e) if cli::closed_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             tracing::error!("{e:#}");
             // 128 + SIGINT, as a shell reports a process Ctrl-C stopped.
             ExitCode::from(if stop.asked() { 130 } else { 1 })
         }
     }
-}
-
-/// Whether `e` is stdout's reader having stopped reading: only a write to
-/// stdout is let go so; any other broken pipe is an error.
-fn closed_pipe(e: &anyhow::Error) -> bool {
-    e.chain().any(|cause| {
-        cause
-            .downcast_ref::<cli::StdoutError>()
-            .is_some_and(cli::StdoutError::is_closed_pipe)
-    })
 }
 
 /// SIGINT and SIGTERM ask `stop`: the work stops at its next look, and the

@@ -17,6 +17,7 @@ use iceoryx2::node::NodeView;
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::{event, publish_subscribe, request_response};
 use std::fmt::Debug;
+use std::time::Duration;
 
 /// The file-name prefix of the project's iceoryx2 resources. iceoryx2 keeps
 /// one management file per prefix for good, so runs share one prefix and
@@ -108,7 +109,7 @@ pub fn config() -> Result<Config, IpcError> {
     defaults
         .publish_subscribe
         .subscriber_expired_connection_buffer = 8;
-    let prefix = std::env::var(PREFIX_ENV).unwrap_or_else(|_| DEFAULT_PREFIX.into());
+    let prefix = prefix();
     config.global.prefix =
         FileName::new(prefix.as_bytes()).map_err(fail(format!("{PREFIX_ENV}={prefix}")))?;
     let root = std::env::var(ROOT_ENV).ok().or_else(|| {
@@ -190,8 +191,8 @@ pub fn resource_count() -> usize {
             })
             .sum()
     }
-    let prefix = std::env::var(PREFIX_ENV).unwrap_or_else(|_| DEFAULT_PREFIX.into());
-    let shm = std::fs::read_dir("/dev/shm")
+    let prefix = prefix();
+    let shm = std::fs::read_dir(SHM_DIR)
         .into_iter()
         .flatten()
         .flatten()
@@ -199,6 +200,54 @@ pub fn resource_count() -> usize {
         .count();
     let root = std::env::var(ROOT_ENV).unwrap_or_else(|_| DEFAULT_ROOT.into());
     shm + walk(std::path::Path::new(&root))
+}
+
+/// The prefix of every shared-memory file of this host's runs.
+fn prefix() -> String {
+    std::env::var(PREFIX_ENV).unwrap_or_else(|_| DEFAULT_PREFIX.into())
+}
+
+/// Where POSIX shared memory lives on Linux.
+const SHM_DIR: &str = "/dev/shm";
+
+/// How long a shared-memory file of the runs may stay empty before it is
+/// taken for one whose maker died between creating and sizing it, which
+/// a live maker does within microseconds.
+const ABANDONED_AFTER: Duration = Duration::from_secs(2);
+
+/// Cleans up what dead processes of the runs left, as iceoryx2's
+/// `try_cleanup_dead_nodes` does, having first removed the empty
+/// shared-memory files of a process killed between creating and sizing
+/// one: iceoryx2 0.10, cleaning up after that process, waits for such a
+/// file to be sized for ever (its dynamic storage's open retries
+/// `MappingSizeIsZero` with no timeout), and a coordinator whose workers
+/// were killed at random hung there.
+pub fn clean_up_dead(node: &Node<ipc::Service>) {
+    remove_abandoned(std::path::Path::new(SHM_DIR), &prefix(), ABANDONED_AFTER);
+    node.try_cleanup_dead_nodes();
+}
+
+/// Removes the empty files in `dir` named with `prefix` that have not
+/// changed for `age`; returns how many. Files it cannot read are left.
+fn remove_abandoned(dir: &std::path::Path, prefix: &str, age: Duration) -> usize {
+    let abandoned = |e: &std::fs::DirEntry| {
+        e.file_name().to_string_lossy().starts_with(prefix)
+            && e.metadata().is_ok_and(|m| {
+                m.is_file()
+                    && m.len() == 0
+                    && m.modified()
+                        .ok()
+                        .and_then(|t| t.elapsed().ok())
+                        .is_some_and(|idle| idle >= age)
+            })
+    };
+    std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter(abandoned)
+        .filter(|e| std::fs::remove_file(e.path()).is_ok())
+        .count()
 }
 
 /// Quiets iceoryx2's own log unless `IOX2_LOG_LEVEL` asks for more.
@@ -269,10 +318,13 @@ pub fn run_exists(names: &RunNames, config: &Config) -> Result<bool, IpcError> {
 }
 
 /// A worker's evaluation service, one server (the worker) and one client.
-/// Each job has one answer, so a client holds one response per request:
-/// the connection that carries them is sized by that count times every
-/// segment the answers' dynamic data segment may grow to, and set up page
-/// by page as the worker starts (0.8 MB; 2.5 MB with iceoryx2's defaults).
+/// Each job has one answer, so a client holds two responses per request:
+/// the answer, and room for a stale one to a request it gave up on whose
+/// channel it reuses, which would otherwise hold the worker's next answer
+/// up. The connection that carries them is sized by that count times
+/// every segment the answers' dynamic data segment may grow to, and set
+/// up page by page as the worker starts (2.5 MB with iceoryx2's
+/// defaults, 8 responses a request).
 pub fn eval_service(node: &Node<ipc::Service>, name: &str) -> Result<EvalService, IpcError> {
     node.service_builder(&service_name(name)?)
         .request_response::<[WireGene], [u8]>()
@@ -282,7 +334,7 @@ pub fn eval_service(node: &Node<ipc::Service>, name: &str) -> Result<EvalService
         .max_clients(2)
         .max_nodes(4)
         .max_active_requests_per_client(MAX_QUEUED)
-        .max_response_buffer_size(1)
+        .max_response_buffer_size(2)
         .max_borrowed_responses_per_pending_response(1)
         .max_loaned_requests(MAX_QUEUED)
         .enable_safe_overflow_for_responses(false)
@@ -333,5 +385,26 @@ mod tests {
             err.ends_with(&format!("(got \"{}\"…)", "y".repeat(MAX_RUN_ID + 1))),
             "{err}"
         );
+    }
+
+    #[test]
+    fn only_empty_files_of_the_runs_left_unchanged_are_taken_for_abandoned() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = |name: &str, bytes: &[u8], idle: Duration| {
+            let path = dir.path().join(name);
+            std::fs::write(&path, bytes).unwrap();
+            let then = std::time::SystemTime::now() - idle;
+            let f = std::fs::File::options().write(true).open(&path).unwrap();
+            f.set_modified(then).unwrap();
+            path
+        };
+        let long = Duration::from_secs(60);
+        let abandoned = file("lander_a.connection", b"", long);
+        let sized = file("lander_b.connection", b"x", long);
+        let fresh = file("lander_c.connection", b"", Duration::ZERO);
+        let foreign = file("other_d.connection", b"", long);
+        assert_eq!(remove_abandoned(dir.path(), "lander_", ABANDONED_AFTER), 1);
+        assert!(!abandoned.exists());
+        assert!(sized.exists() && fresh.exists() && foreign.exists());
     }
 }

@@ -23,8 +23,10 @@ use lander_model::{
 };
 use serde::{Deserialize, Serialize};
 
-/// Bumped whenever any layout here changes.
-pub const PROTOCOL_VERSION: u32 = 5;
+/// Bumped whenever any layout here changes, or the shape of a run's
+/// iceoryx2 services (`iox`): a worker of another build is then refused
+/// by its version, before its services are opened.
+pub const PROTOCOL_VERSION: u32 = 6;
 
 /// Job kinds.
 pub const KIND_EVALUATE: u32 = 0;

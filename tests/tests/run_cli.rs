@@ -569,3 +569,36 @@ fn an_out_that_is_a_file_is_refused_by_every_command_that_writes_a_folder() {
     }
     assert_eq!(fs::read_to_string(&file).unwrap(), "mine");
 }
+
+/// A run whose summary finds stdout's reader gone has still finished, its
+/// outputs written: it exits 0, and its events say it finished.
+#[test]
+fn a_run_whose_stdout_reader_left_is_recorded_as_finished() {
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let mut child = Command::new(lander_tests::binary("lander"))
+        .args([
+            "run",
+            "--json",
+            "--max-generations",
+            "3",
+            "--max-restarts",
+            "0",
+        ])
+        .args(["--out", out.to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let done = child.wait_with_output().unwrap();
+    assert!(done.status.success(), "{}", stderr(&done));
+    assert!(out.join("best.json").exists());
+    let events = json_lines(&out.join("events.jsonl"));
+    assert_eq!(
+        events.last().unwrap()["event"],
+        "run_finished",
+        "{events:?}"
+    );
+}

@@ -54,6 +54,8 @@ pub fn learn(
             // The trial's start, so that `--resume` finds it after a kill
             // during the first leg.
             let start = run.state();
+            // Its agent, every weight of it, is not needed on workers.
+            drop(run);
             save(cfg, out, &start)?;
             on_workers(cfg, out, leg(cfg, Some(start), every), log, pool, every)?
         }
@@ -78,7 +80,8 @@ fn save(cfg: &RunConfig, out: &Path, state: &LearnState) -> anyhow::Result<()> {
 
 /// A saved Q(λ) trial ready to go on: its run here, or its next leg and
 /// the pool to fly it.
-// One is made a command: the variants' sizes cost nothing.
+// Made once by a command, and moved twice: boxing the larger variant
+// would save nothing.
 #[allow(clippy::large_enum_variant)]
 pub enum Resumable {
     Here(LearnRun),
@@ -87,7 +90,7 @@ pub enum Resumable {
 
 /// The trial saved in `dir` at `state`, ready to go on in-process (`pool`
 /// `None`) or on `pool`: refused, naming the checkpoint, if it does not
-/// fit its configuration, and if `pool` could not train its next leg;
+/// fit its configuration, or if `pool` could not train its next leg;
 /// asked before the run's folder is touched.
 pub fn resumable(
     cfg: &RunConfig,

@@ -42,6 +42,16 @@ impl StdoutError {
     }
 }
 
+/// Whether `e` is stdout's reader having stopped reading: the command's
+/// work is done and it ends quietly; any other broken pipe is an error.
+pub fn closed_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|cause| {
+        cause
+            .downcast_ref::<StdoutError>()
+            .is_some_and(StdoutError::is_closed_pipe)
+    })
+}
+
 #[derive(Parser, Debug)]
 #[command(
     name = "lander",

@@ -73,12 +73,14 @@ impl Watch {
         *self.held.lock().unwrap_or_else(|p| p.into_inner()) = lock;
     }
 
-    /// Tells how the run ended: finished, interrupted (and resumable), or
-    /// failed, with the error as the command reports it. Then lets go of
-    /// the folder.
+    /// Tells how the run ended: finished (its outputs written, if stdout's
+    /// reader stopped reading), interrupted (and resumable), or failed,
+    /// with the error as the command reports it. Then lets go of the
+    /// folder.
     pub fn end<T>(&self, result: &anyhow::Result<T>, interrupted: bool) {
         self.telemetry.event(match (result, interrupted) {
             (Ok(_), _) => Event::RunFinished,
+            (Err(e), _) if super::closed_pipe(e) => Event::RunFinished,
             (Err(_), true) => Event::RunInterrupted,
             (Err(e), false) => Event::RunFailed {
                 error: format!("{e:#}"),

@@ -1,10 +1,11 @@
 //! Runs trials on one [`Backend`]: the GA trials stepped together, a
 //! generation of each per round, so that every core stays busy even with
-//! small populations (on a pool, each trial taking in its last generation
-//! as the pool asks for its next: `step_each`); then the Q(λ) trials, one
-//! job each. A task is a trial's
-//! configuration under a key of the caller's (an experiment's [`TrialId`], or
-//! a sweep's setting and trial), so one workload can hold many experiments.
+//! small populations (without the evaluator's own threads, as on a pool,
+//! each trial taking in its last generation as the evaluator asks for its
+//! next: `step_each`); then the Q(λ) trials, one
+//! job each. A task is a trial's configuration under a key of the caller's
+//! (an experiment's [`TrialId`], or a sweep's setting and trial), so one
+//! workload can hold many experiments.
 
 use super::file::Experiment;
 use crate::config::RunConfig;
@@ -182,10 +183,18 @@ fn evolve<K: Copy + Send>(
         if running.is_empty() {
             return Ok(());
         }
-        if together {
-            step_together(&mut running, backend, progress)?;
+        let stepped = if together {
+            step_together(&mut running, backend, progress)
         } else {
-            step_each(&mut running, backend, progress)?;
+            step_each(&mut running, backend, progress)
+        };
+        if stepped.is_err() {
+            // The trials whose last generation has flown are recorded
+            // before the error ends the run, as they are stepped together:
+            // a resumed run need not fly them again.
+            for r in &mut running {
+                r.take_in(progress);
+            }
         }
         let mut i = 0;
         while i < running.len() {
@@ -199,6 +208,7 @@ fn evolve<K: Copy + Send>(
                 i += 1;
             }
         }
+        stepped?;
     }
 }
 
@@ -229,17 +239,22 @@ fn step_together<K: Copy + Send>(
 }
 
 /// Flies a generation of every running trial that goes on, each trial
-/// taking in its last generation only as the evaluator asks for its next
-/// (a pool asks as it hands the step out, breeding each trial's
-/// generation chunk by chunk, so that its workers fly the first trials'
-/// while the rest are taken in). A trial that ends there flies no more;
-/// the others keep their evaluations for the next step.
+/// taking in its last generation only as the evaluator asks for its next,
+/// for an evaluator without threads of its own (a pool asks as it hands
+/// the step out, breeding each trial's generation chunk by chunk, so that
+/// its workers fly the first trials' while the rest are taken in). A
+/// trial that ends there flies no more, and leaves after the step: one
+/// step later than stepped together, its slot idle for that step. The
+/// others keep their evaluations for the next step.
 fn step_each<K: Copy>(
     running: &mut [Running<K>],
     backend: &mut dyn Evaluator,
     progress: &mut dyn Progress<K>,
 ) -> Result<(), ExperimentError> {
+    // The running trials flown in this step, in the order taken.
     let mut flying = Vec::new();
+    // Taking a batch takes its trial in first: the iterator is lazy, and
+    // its borrows end with it, before the evaluations are stored.
     let mut batches = running.iter_mut().enumerate().filter_map(|(i, r)| {
         r.take_in(progress);
         if r.run.result().is_some() {
@@ -250,6 +265,13 @@ fn step_each<K: Copy>(
     });
     let evaluations = backend.evaluate_each(&mut batches)?;
     drop(batches);
+    if evaluations.len() != flying.len() {
+        return Err(EvalError::Miscounted {
+            taken: flying.len(),
+            answered: evaluations.len(),
+        }
+        .into());
+    }
     for (i, evaluations) in flying.into_iter().zip(evaluations) {
         running[i].flown = Some(evaluations);
     }

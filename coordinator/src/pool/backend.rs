@@ -225,9 +225,15 @@ impl<T: Transport> Evaluator for Pool<T> {
         // Whether a batch of the step was still to be bred.
         let mut unbred = false;
         if coming > 1 && !self.pace.keeps_up(self.at_once(workers)) {
+            // Every batch made now, the making counted as breeding is
+            // where they are made as they are handed out.
+            let making = thread_cpu_time();
             batches.extend(&mut *next);
+            breeding = thread_cpu_time().saturating_sub(making);
             unbred = batches.iter().any(|b| !b.is_bred());
-            breeding = breed_in_parallel(&mut batches);
+            if batches.len() > 1 && unbred {
+                breeding += breed_in_parallel(&mut batches);
+            }
         }
         let cutting = thread_cpu_time();
         let mut chunks = Vec::new();
@@ -344,9 +350,10 @@ fn breed_in_parallel(batches: &mut [Batch<'_>]) -> Duration {
 }
 
 /// What a step of several batches still to be bred cost: the
-/// coordinator's CPU time breeding them and cutting their chunks, and the
-/// time flying them: the workers', and the coordinator's on the chunks it
-/// flew itself.
+/// coordinator's CPU time making them (an experiment's trials taking in
+/// their last generation), breeding them and cutting their chunks, and
+/// the time flying them: the workers', and the coordinator's on the
+/// chunks it flew itself.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct Pace {
     pub breeding: Duration,

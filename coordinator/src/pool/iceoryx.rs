@@ -52,7 +52,7 @@ impl Iceoryx {
             &config,
             SignalHandlingMode::Disabled,
         )?;
-        node.try_cleanup_dead_nodes();
+        iox::clean_up_dead(&node);
         // After this one's node is made, so that of two started at once
         // one sees the other, whichever made its node second.
         if let Some(pid) = iox::other_alive_named(&node)? {
@@ -125,7 +125,7 @@ impl Transport for Iceoryx {
     /// Opens the worker's services and its client now. A connection's
     /// shared memory is set up by whichever end comes second, page by
     /// page (iceoryx2 sizes it for every segment a dynamic data segment
-    /// may grow to: 0.8 MB for a worker's answers, `iox::eval_service`):
+    /// may grow to: 1.0 MB for a worker's answers, `iox::eval_service`):
     /// with the client there first, the worker's server sets it up as it
     /// starts, on its own CPU, and the client later opens it. A link
     /// that fails to open here is opened again when the worker announces
@@ -140,7 +140,7 @@ impl Transport for Iceoryx {
         // A dead node's server disconnects, which its link sees; cleaning
         // up lets a later run start clean.
         if self.last_reap.elapsed() >= REAP_EVERY {
-            self.node.try_cleanup_dead_nodes();
+            iox::clean_up_dead(&self.node);
             self.last_reap = Instant::now();
         }
         Vec::new()
@@ -165,7 +165,7 @@ impl Transport for Iceoryx {
 
     fn close(&mut self) {
         self.opened.clear();
-        self.node.try_cleanup_dead_nodes();
+        iox::clean_up_dead(&self.node);
     }
 }
 

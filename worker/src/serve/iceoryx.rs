@@ -46,7 +46,7 @@ pub fn serve(
     // left, a killed coordinator's node above all, as the coordinator does
     // when its run ends: a worker stopped because its coordinator is gone
     // (`parent.rs`) may be the last process of the run.
-    node.try_cleanup_dead_nodes();
+    iox::clean_up_dead(&node);
     exit
 }
 
@@ -150,7 +150,7 @@ fn serve_on(
                 }
             }
         } else if attachment.has_event_from(&tick) {
-            node.try_cleanup_dead_nodes();
+            iox::clean_up_dead(node);
             if wake_service.dynamic_config().number_of_listeners() == 0 {
                 // The coordinator says the run is over before it leaves; a
                 // word still waiting here means it ended the run cleanly.
