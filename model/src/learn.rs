@@ -298,6 +298,11 @@ impl TrainJob {
             until: learn.episodes,
         }
     }
+
+    /// The episodes flown before the leg starts.
+    pub fn start(&self) -> u32 {
+        self.from.as_ref().map_or(0, |s| s.episodes)
+    }
 }
 
 /// A trial's leg as a worker serves it: the leg's records, the summary so

@@ -191,13 +191,7 @@ pub fn resource_count() -> usize {
             })
             .sum()
     }
-    let prefix = prefix();
-    let shm = std::fs::read_dir(SHM_DIR)
-        .into_iter()
-        .flatten()
-        .flatten()
-        .filter(|e| e.file_name().to_string_lossy().starts_with(&prefix))
-        .count();
+    let shm = named_with(std::path::Path::new(SHM_DIR), &prefix()).count();
     let root = std::env::var(ROOT_ENV).unwrap_or_else(|_| DEFAULT_ROOT.into());
     shm + walk(std::path::Path::new(&root))
 }
@@ -231,23 +225,32 @@ pub fn clean_up_dead(node: &Node<ipc::Service>) {
 /// changed for `age`; returns how many. Files it cannot read are left.
 fn remove_abandoned(dir: &std::path::Path, prefix: &str, age: Duration) -> usize {
     let abandoned = |e: &std::fs::DirEntry| {
-        e.file_name().to_string_lossy().starts_with(prefix)
-            && e.metadata().is_ok_and(|m| {
-                m.is_file()
-                    && m.len() == 0
-                    && m.modified()
-                        .ok()
-                        .and_then(|t| t.elapsed().ok())
-                        .is_some_and(|idle| idle >= age)
-            })
+        e.metadata().is_ok_and(|m| {
+            m.is_file()
+                && m.len() == 0
+                && m.modified()
+                    .ok()
+                    .and_then(|t| t.elapsed().ok())
+                    .is_some_and(|idle| idle >= age)
+        })
     };
+    named_with(dir, prefix)
+        .filter(abandoned)
+        .filter(|e| std::fs::remove_file(e.path()).is_ok())
+        .count()
+}
+
+/// The entries of `dir` whose names start with `prefix`; none where `dir`
+/// cannot be read.
+fn named_with<'a>(
+    dir: &std::path::Path,
+    prefix: &'a str,
+) -> impl Iterator<Item = std::fs::DirEntry> + 'a {
     std::fs::read_dir(dir)
         .into_iter()
         .flatten()
         .flatten()
-        .filter(abandoned)
-        .filter(|e| std::fs::remove_file(e.path()).is_ok())
-        .count()
+        .filter(move |e| e.file_name().to_string_lossy().starts_with(prefix))
 }
 
 /// Quiets iceoryx2's own log unless `IOX2_LOG_LEVEL` asks for more.

@@ -130,7 +130,7 @@ pub fn resume(
 ) -> anyhow::Result<()> {
     let episodes = match &trial {
         Resumable::Here(run) => run.training().episodes,
-        Resumable::OnWorkers(next, _) => next.from.as_ref().map_or(0, |s| s.episodes),
+        Resumable::OnWorkers(next, _) => next.start(),
     };
     // A trial saved at its start (on workers) may have no log yet.
     let log = match episodes {
@@ -207,7 +207,7 @@ fn on_workers(
     let bar = bar(cfg);
     let mut job = next;
     loop {
-        let start = job.from.as_ref().map_or(0, |s| s.episodes);
+        let start = job.start();
         bar.set_position(u64::from(start));
         // Refused before it starts, a leg leaves nothing to resume.
         pool.can_train(std::slice::from_ref(&job))?;

@@ -2,10 +2,10 @@
 //! generation of each per round, so that every core stays busy even with
 //! small populations (without the evaluator's own threads, as on a pool,
 //! each trial taking in its last generation as the evaluator asks for its
-//! next: `step_each`); then the Q(λ) trials, one
-//! job each. A task is a trial's configuration under a key of the caller's
-//! (an experiment's [`TrialId`], or a sweep's setting and trial), so one
-//! workload can hold many experiments.
+//! next: `step_each`); then the Q(λ) trials, one job each. A task is a
+//! trial's configuration under a key of the caller's (an experiment's
+//! [`TrialId`], or a sweep's setting and trial), so one workload can hold
+//! many experiments.
 
 use super::file::Experiment;
 use crate::config::RunConfig;
@@ -139,9 +139,14 @@ impl<K: Copy> Running<K> {
     fn take_in(&mut self, progress: &mut dyn Progress<K>) {
         if let Some(evaluations) = self.flown.take() {
             let generation = self.run.accept(&evaluations);
-            progress.generation(self.key, &generation);
-            self.log.push(generation);
+            self.record(generation, progress);
         }
+    }
+
+    /// Reports and logs a generation the trial has taken in.
+    fn record(&mut self, generation: Generation, progress: &mut dyn Progress<K>) {
+        progress.generation(self.key, &generation);
+        self.log.push(generation);
     }
 }
 
@@ -232,8 +237,7 @@ fn step_together<K: Copy + Send>(
             .collect(),
     };
     for (r, generation) in running.iter_mut().zip(generations) {
-        progress.generation(r.key, &generation);
-        r.log.push(generation);
+        r.record(generation, progress);
     }
     Ok(())
 }

@@ -82,10 +82,12 @@ impl<T: Transport> Trainer for Pool<T> {
 /// `per_chunk` episodes, and none past the trial's own end.
 fn leg(trial: &TrainJob, from: Option<LearnState>, per_chunk: u32) -> TrainJob {
     let start = from.as_ref().map_or(0, |s| s.episodes);
+    // Not `..trial.clone()`, which would copy the trial's own starting
+    // state, millions of weights maybe, only to drop it.
     TrainJob {
         until: trial.until.min(start.saturating_add(per_chunk)),
         from,
-        ..trial.clone()
+        ..TrainJob::whole(trial.env, trial.guide, trial.learn, trial.key)
     }
 }
 
@@ -116,7 +118,7 @@ impl<T: Transport> Pool<T> {
             bytes,
             why,
         };
-        let start = trial.from.as_ref().map_or(0, |s| s.episodes);
+        let start = trial.start();
         if let Some(from) = &trial.from {
             let bytes = state_bytes(from.weights.len());
             if !state_fits(bytes) {
