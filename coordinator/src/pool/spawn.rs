@@ -230,21 +230,23 @@ impl Children {
         gone
     }
 
-    /// Waits at most `grace` for the spawned workers among `pids` to exit,
-    /// looking every millisecond; the next `exited` reaps those that did.
-    /// Pids not spawned here are not waited for.
+    /// Waits at most `grace` for the spawned workers among `pids` to exit;
+    /// the next `exited` reaps those that did. Pids not spawned here are
+    /// not waited for.
     pub fn await_exit(&mut self, pids: &[u32], grace: Duration) {
         let until = Instant::now() + grace;
         loop {
             // `try_wait` keeps a status it found, for `exited` to see.
-            let running = self
+            let running: Vec<u32> = self
                 .procs
                 .iter_mut()
-                .any(|p| pids.contains(&p.child.id()) && matches!(p.child.try_wait(), Ok(None)));
-            if !running || Instant::now() >= until {
+                .filter(|p| pids.contains(&p.child.id()))
+                .filter_map(|p| matches!(p.child.try_wait(), Ok(None)).then(|| p.child.id()))
+                .collect();
+            if running.is_empty() || Instant::now() >= until {
                 return;
             }
-            std::thread::sleep(Duration::from_millis(1));
+            sleep_until_one_exits(&running, until);
         }
     }
 
@@ -287,15 +289,17 @@ impl Children {
                 terminate(p.child.id());
             }
         }
-        // Workers told to leave exit within a couple of milliseconds: look
-        // often, and not once more after the last has gone.
+        // Workers told to leave exit within a couple of milliseconds: each
+        // is reaped as it exits, and not looked at once more after the
+        // last has gone.
         let patience = Instant::now() + Duration::from_secs(5);
         loop {
             self.exited();
             if self.procs.is_empty() || Instant::now() >= patience {
                 break;
             }
-            std::thread::sleep(Duration::from_millis(1));
+            let live: Vec<u32> = self.procs.iter().map(|p| p.child.id()).collect();
+            sleep_until_one_exits(&live, patience);
         }
         let stuck = self.procs.len();
         for mut p in self.procs.drain(..) {
@@ -304,6 +308,49 @@ impl Children {
         }
         stuck
     }
+}
+
+/// A file descriptor naming process `pid` (pidfd_open(2)), and no later
+/// process given the same pid; `None` if there is no such process, or the
+/// kernel (before 5.3) has no pidfds.
+fn pidfd(pid: u32) -> Option<OwnedFd> {
+    let raw = libc::pid_t::try_from(pid).ok()?;
+    // SAFETY: pidfd_open takes a pid and flags and returns a new file
+    // descriptor, or -1 without side effects.
+    let fd = unsafe { libc::syscall(libc::SYS_pidfd_open, raw, 0) };
+    let fd = i32::try_from(fd).ok().filter(|&fd| fd >= 0)?;
+    // SAFETY: `fd` was just opened and nothing else owns it.
+    Some(unsafe { OwnedFd::from_raw_fd(fd) })
+}
+
+/// Sleeps until one of `pids`, children of this process not yet reaped
+/// (so that no pid can have been reused), exits, or until `until`.
+/// Their pidfds wake it at the exit itself, where looking every
+/// millisecond would wake it up to a millisecond late, and often before
+/// then on the CPU an exiting worker needs. Without pidfds it sleeps a
+/// millisecond.
+fn sleep_until_one_exits(pids: &[u32], until: Instant) {
+    let left = until.saturating_duration_since(Instant::now());
+    let fds: Option<Vec<OwnedFd>> = pids.iter().map(|&pid| pidfd(pid)).collect();
+    let Some(fds) = fds.filter(|fds| !fds.is_empty()) else {
+        std::thread::sleep(left.min(Duration::from_millis(1)));
+        return;
+    };
+    let mut polls: Vec<libc::pollfd> = fds
+        .iter()
+        .map(|fd| libc::pollfd {
+            fd: fd.as_raw_fd(),
+            events: libc::POLLIN,
+            revents: 0,
+        })
+        .collect();
+    // poll(2) counts whole milliseconds: round up, so as not to wake
+    // before `until` and look once more for nothing.
+    let ms = i32::try_from(left.as_micros().div_ceil(1000)).unwrap_or(i32::MAX);
+    let count = libc::nfds_t::try_from(polls.len()).unwrap_or(libc::nfds_t::MAX);
+    // SAFETY: `polls` holds `count` initialised pollfds, each naming a
+    // pidfd that `fds` keeps open for the call.
+    unsafe { libc::poll(polls.as_mut_ptr(), count, ms) };
 }
 
 /// Sends SIGTERM to `pid`, a child of this process not yet reaped, so that
@@ -349,20 +396,9 @@ fn is_worker_child(parent: &str, pid: u32) -> bool {
 /// process it was opened on and no later one: a pid freed by a reaped
 /// worker and reused by another process is never hit.
 pub fn kill_worker_child(parent: u32, pid: u32) -> bool {
-    let Ok(raw) = libc::pid_t::try_from(pid) else {
+    let Some(fd) = pidfd(pid) else {
         return false;
     };
-    // SAFETY: pidfd_open takes a pid and flags and returns a new file
-    // descriptor, or -1 without side effects.
-    let fd = unsafe { libc::syscall(libc::SYS_pidfd_open, raw, 0) };
-    let Ok(fd) = i32::try_from(fd) else {
-        return false;
-    };
-    if fd < 0 {
-        return false;
-    }
-    // SAFETY: `fd` was just opened and nothing else owns it.
-    let fd = unsafe { OwnedFd::from_raw_fd(fd) };
     if !is_worker_child(&parent.to_string(), pid) {
         return false;
     }
@@ -425,6 +461,20 @@ mod tests {
         children.spawn().unwrap();
         children.spawn().unwrap();
         assert_eq!(children.stop_all(&[]), 0, "a worker had to be killed");
+        assert!(children.is_empty());
+    }
+
+    #[test]
+    fn workers_told_to_leave_are_each_reaped_as_they_exit_and_none_is_killed() {
+        let dir = tempfile::tempdir().unwrap();
+        let exe = script(&dir.path().join("worker.sh"), "sleep 0.2\n");
+        let mut children = Children::new(exe, "r".into(), Vec::new(), 0, Placement::default());
+        let told = [children.spawn().unwrap(), children.spawn().unwrap()];
+        let pids: Vec<u32> = told.iter().map(|c| c.pid).collect();
+        children.await_exit(&pids[..1], Duration::from_secs(10));
+        // Both sleep alike, so the second may have gone by now too.
+        assert!(children.exited().contains(&told[0]), "the first waited for");
+        assert_eq!(children.stop_all(&told), 0, "a worker had to be killed");
         assert!(children.is_empty());
     }
 

@@ -42,11 +42,15 @@ pub fn serve(
     } else {
         serve_on(&node, &names, &config, id, spin, say)
     };
-    // However it ends, the worker clears what dead processes of the run
-    // left, a killed coordinator's node above all, as the coordinator does
-    // when its run ends: a worker stopped because its coordinator is gone
-    // (`parent.rs`) may be the last process of the run.
-    iox::clean_up_dead(&node);
+    // Unless its coordinator ended the run (and clears up after it once
+    // its workers have gone), the worker clears what dead processes of the
+    // run left, a killed coordinator's node above all: a worker stopped
+    // because its coordinator is gone (`parent.rs`) may be the last
+    // process of the run. A worker of a finished run leaves at once, for
+    // its coordinator waits for it.
+    if !matches!(exit, Ok(Exit::RunFinished)) {
+        iox::clean_up_dead(&node);
+    }
     exit
 }
 
