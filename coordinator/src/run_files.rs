@@ -9,6 +9,7 @@ use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 /// Which trial a record is about, and whether it landed: the fields every
 /// record of a trial starts with.
@@ -253,12 +254,22 @@ fn at(path: &Path) -> impl Fn(std::io::Error) -> WriteError + '_ {
 }
 
 /// A run's log of one JSON line per generation (`generations.jsonl`) or
-/// per episode (`episodes.jsonl`), each flushed as it arrives so that an
-/// interrupted run keeps what it flew.
+/// per episode (`episodes.jsonl`). A line goes to the file at once where
+/// the last went [`FLUSH_EVERY`] or more before it, and otherwise with a
+/// later one: a reader following the log sees lines as they come, within
+/// a few milliseconds while they come fast. Stopped by a signal or an
+/// error, a run flushes what it flew before it saves its checkpoint
+/// ([`RunLog::sync`]); a run that ends flushes it all ([`RunLog::finish`]).
 pub struct RunLog {
     path: PathBuf,
     out: BufWriter<File>,
+    /// When a line last went to the file.
+    flushed: Instant,
 }
+
+/// The longest lines stay buffered while more come. A write(2) for every
+/// line cost a guided generation on 2 threads 2–5 µs, about 3% of it.
+pub const FLUSH_EVERY: Duration = Duration::from_millis(10);
 
 /// The log of the GA methods.
 pub const GENERATIONS: &str = "generations.jsonl";
@@ -289,6 +300,7 @@ impl RunLog {
         Ok(RunLog {
             out: BufWriter::new(file),
             path,
+            flushed: Instant::now(),
         })
     }
 
@@ -338,19 +350,33 @@ impl RunLog {
         file.set_len(end as u64).map_err(at(&path))?;
         let mut out = BufWriter::new(file);
         out.seek(std::io::SeekFrom::End(0)).map_err(at(&path))?;
-        Ok(RunLog { out, path })
+        Ok(RunLog {
+            out,
+            path,
+            flushed: Instant::now(),
+        })
     }
 
     pub fn write(&mut self, record: &impl Serialize) -> Result<(), WriteError> {
         serde_json::to_writer(&mut self.out, record).map_err(|e| at(&self.path)(e.into()))?;
         self.out.write_all(b"\n").map_err(at(&self.path))?;
-        self.out.flush().map_err(at(&self.path))
+        if self.flushed.elapsed() >= FLUSH_EVERY {
+            self.finish()?;
+        }
+        Ok(())
+    }
+
+    /// Sends every line written to the file.
+    pub fn finish(&mut self) -> Result<(), WriteError> {
+        self.out.flush().map_err(at(&self.path))?;
+        self.flushed = Instant::now();
+        Ok(())
     }
 
     /// Makes what was written durable, before a checkpoint that counts on
     /// it.
     pub fn sync(&mut self) -> Result<(), WriteError> {
-        self.out.flush().map_err(at(&self.path))?;
+        self.finish()?;
         self.out.get_ref().sync_data().map_err(at(&self.path))
     }
 }
@@ -397,6 +423,22 @@ mod tests {
             }
             std::fs::remove_file(dir.join(file)).unwrap();
         }
+    }
+
+    #[test]
+    fn a_line_reaches_the_file_once_the_last_went_long_enough_before_and_all_at_finish() {
+        let dir = tempfile::tempdir().unwrap();
+        let dir = dir.path();
+        let read = || std::fs::read_to_string(dir.join(GENERATIONS)).unwrap();
+        let mut log = RunLog::create(dir, GENERATIONS).unwrap();
+        log.write(&serde_json::json!({"index": 1})).unwrap();
+        std::thread::sleep(FLUSH_EVERY);
+        log.write(&serde_json::json!({"index": 2})).unwrap();
+        assert_eq!(read(), "{\"index\":1}\n{\"index\":2}\n");
+        // Written at once after that, the next may wait in the buffer.
+        log.write(&serde_json::json!({"index": 3})).unwrap();
+        log.finish().unwrap();
+        assert_eq!(read(), "{\"index\":1}\n{\"index\":2}\n{\"index\":3}\n");
     }
 
     #[test]

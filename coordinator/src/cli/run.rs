@@ -351,6 +351,7 @@ fn evolve(
     let wall_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     drop(evaluator);
+    log.finish()?;
     let best_path = out.join(BEST);
     write_json(&best_path, &BestRecord::new(cfg, &result))?;
     // The run is over; nothing is left to resume.
