@@ -109,6 +109,17 @@ pub fn config() -> Result<Config, IpcError> {
     defaults
         .publish_subscribe
         .subscriber_expired_connection_buffer = 8;
+    // iceoryx2 cleans up after dead nodes as a node is made, as one is
+    // dropped and as a service is opened; any of these can hang for ever
+    // on a file a killed process left half made. The runs' processes clean
+    // up through `clean_up_dead` alone, which guards against that, where
+    // each chooses: the coordinator as it opens the run, every half second
+    // after, as it forgets a dead worker and as its run ends; a worker as
+    // it looks for a coordinator that may be gone, and as it leaves a run
+    // its coordinator did not end.
+    config.global.node.cleanup_dead_nodes_on_creation = false;
+    config.global.node.cleanup_dead_nodes_on_destruction = false;
+    config.global.service.cleanup_dead_nodes_on_open = false;
     let prefix = prefix();
     config.global.prefix =
         FileName::new(prefix.as_bytes()).map_err(fail(format!("{PREFIX_ENV}={prefix}")))?;
@@ -206,38 +217,61 @@ const SHM_DIR: &str = "/dev/shm";
 
 /// How long a shared-memory file of the runs may stay empty before it is
 /// taken for one whose maker died between creating and sizing it, which
-/// a live maker does within microseconds.
-const ABANDONED_AFTER: Duration = Duration::from_secs(2);
+/// a live maker does within microseconds, two system calls apart: many
+/// times a busy host's scheduling period, and short enough that the
+/// cleanups it puts off, while workers are killed twice a second, let
+/// nothing pile up (`tests/tests/soak.rs`).
+const ABANDONED_AFTER: Duration = Duration::from_millis(100);
 
 /// Cleans up what dead processes of the runs left, as iceoryx2's
-/// `try_cleanup_dead_nodes` does, having first removed the empty
-/// shared-memory files of a process killed between creating and sizing
-/// one: iceoryx2 0.10, cleaning up after that process, waits for such a
-/// file to be sized for ever (its dynamic storage's open retries
-/// `MappingSizeIsZero` with no timeout), and a coordinator whose workers
-/// were killed at random hung there.
-pub fn clean_up_dead(node: &Node<ipc::Service>) {
-    remove_abandoned(std::path::Path::new(SHM_DIR), &prefix(), ABANDONED_AFTER);
-    node.try_cleanup_dead_nodes();
+/// `try_cleanup_dead_nodes` does, unless a shared-memory file of the runs
+/// is half made; returns whether it cleaned up. iceoryx2 0.10, cleaning
+/// up after a process killed between creating such a file and sizing it,
+/// waits for the file to be sized for ever (its dynamic storage's open
+/// retries `MappingSizeIsZero` with no timeout), and a coordinator whose
+/// workers were killed at random hung there. So this is the only cleanup
+/// the runs' processes do (`config` turns iceoryx2's own off), and it
+/// first removes the empty files left unchanged for `ABANDONED_AFTER`,
+/// then puts itself off to a later call while a younger one is there,
+/// which a live process may be about to size. What remains is a process
+/// killed mid-creation during the cleanup itself.
+pub fn clean_up_dead(node: &Node<ipc::Service>) -> bool {
+    let ready = ready_to_clean(std::path::Path::new(SHM_DIR), &prefix(), ABANDONED_AFTER);
+    if ready {
+        node.try_cleanup_dead_nodes();
+    }
+    ready
 }
 
 /// Removes the empty files in `dir` named with `prefix` that have not
-/// changed for `age`; returns how many. Files it cannot read are left.
-fn remove_abandoned(dir: &std::path::Path, prefix: &str, age: Duration) -> usize {
-    let abandoned = |e: &std::fs::DirEntry| {
-        e.metadata().is_ok_and(|m| {
-            m.is_file()
-                && m.len() == 0
-                && m.modified()
-                    .ok()
-                    .and_then(|t| t.elapsed().ok())
-                    .is_some_and(|idle| idle >= age)
-        })
-    };
-    named_with(dir, prefix)
-        .filter(abandoned)
-        .filter(|e| std::fs::remove_file(e.path()).is_ok())
-        .count()
+/// changed for `age`; true if no empty file of theirs is left. Files it
+/// cannot read are left, and not counted.
+fn ready_to_clean(dir: &std::path::Path, prefix: &str, age: Duration) -> bool {
+    let mut ready = true;
+    for entry in named_with(dir, prefix) {
+        match idle_if_empty(&entry) {
+            Some(idle) if idle >= age => {
+                // Gone already, another process having taken it, is as
+                // good; one that cannot be removed is still there.
+                ready &= std::fs::remove_file(entry.path()).is_ok() || !entry.path().exists();
+            }
+            Some(_) => ready = false,
+            None => {}
+        }
+    }
+    ready
+}
+
+/// How long `entry`, an empty file, has gone unchanged (none yet, where
+/// its time is ahead of the clock); `None` for anything else, or an entry
+/// that cannot be read.
+fn idle_if_empty(entry: &std::fs::DirEntry) -> Option<Duration> {
+    let meta = entry.metadata().ok()?;
+    if !meta.is_file() || meta.len() > 0 {
+        return None;
+    }
+    let changed = meta.modified().ok()?;
+    Some(changed.elapsed().unwrap_or_default())
 }
 
 /// The entries of `dir` whose names start with `prefix`; none where `dir`
@@ -391,7 +425,7 @@ mod tests {
     }
 
     #[test]
-    fn only_empty_files_of_the_runs_left_unchanged_are_taken_for_abandoned() {
+    fn a_half_made_file_puts_the_cleanup_off_and_one_left_long_enough_is_removed() {
         let dir = tempfile::tempdir().unwrap();
         let file = |name: &str, bytes: &[u8], idle: Duration| {
             let path = dir.path().join(name);
@@ -404,10 +438,20 @@ mod tests {
         let long = Duration::from_secs(60);
         let abandoned = file("lander_a.connection", b"", long);
         let sized = file("lander_b.connection", b"x", long);
-        let fresh = file("lander_c.connection", b"", Duration::ZERO);
         let foreign = file("other_d.connection", b"", long);
-        assert_eq!(remove_abandoned(dir.path(), "lander_", ABANDONED_AFTER), 1);
+        assert!(ready_to_clean(dir.path(), "lander_", ABANDONED_AFTER));
         assert!(!abandoned.exists());
-        assert!(sized.exists() && fresh.exists() && foreign.exists());
+        assert!(sized.exists() && foreign.exists());
+
+        // One a live process may be about to size puts the cleanup off,
+        // and stays, until it is sized or left long enough.
+        let fresh = file("lander_c.connection", b"", Duration::ZERO);
+        assert!(!ready_to_clean(dir.path(), "lander_", ABANDONED_AFTER));
+        assert!(fresh.exists());
+        std::fs::write(&fresh, b"x").unwrap();
+        assert!(ready_to_clean(dir.path(), "lander_", ABANDONED_AFTER));
+        let stale = file("lander_e.connection", b"", long);
+        assert!(ready_to_clean(dir.path(), "lander_", ABANDONED_AFTER));
+        assert!(!stale.exists() && fresh.exists());
     }
 }

@@ -159,8 +159,14 @@ impl Transport for Iceoryx {
         Vec::new()
     }
 
+    /// The dead worker's files are cleared at once, as its replacement's
+    /// services are about to be opened: nothing else of the run clears
+    /// them sooner (`iox::config`), and workers killed often would
+    /// otherwise leave several behind at a time.
     fn forget(&mut self, id: u64) {
         self.opened.remove(&id);
+        iox::clean_up_dead(&self.node);
+        self.last_reap = Instant::now();
     }
 
     fn close(&mut self) {

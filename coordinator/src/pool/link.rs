@@ -40,7 +40,8 @@ pub trait Transport {
     /// [`Transport::connect`] to hand over once it announces itself.
     fn expect(&mut self, _id: u64) {}
     /// Says that the spawned worker of this id has exited: a link opened
-    /// for it that it never took up is closed.
+    /// for it that it never took up is closed, and what it left behind
+    /// may be cleared before its replacement starts.
     fn forget(&mut self, _id: u64) {}
     /// Workers the transport has seen go since the last look.
     fn departures(&mut self) -> Vec<u64>;
