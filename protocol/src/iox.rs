@@ -217,11 +217,11 @@ const SHM_DIR: &str = "/dev/shm";
 
 /// How long a shared-memory file of the runs may stay empty before it is
 /// taken for one whose maker died between creating and sizing it, which
-/// a live maker does within microseconds, two system calls apart: many
-/// times a busy host's scheduling period, and short enough that the
-/// cleanups it puts off, while workers are killed twice a second, let
-/// nothing pile up (`tests/tests/soak.rs`).
-const ABANDONED_AFTER: Duration = Duration::from_millis(100);
+/// a live maker does within microseconds, two system calls apart: room
+/// for a maker descheduled between them on a busy or throttled host, and
+/// short enough that the cleanups it puts off, while workers are killed
+/// twice a second, let nothing pile up (`tests/tests/soak.rs`).
+const ABANDONED_AFTER: Duration = Duration::from_millis(500);
 
 /// Cleans up what dead processes of the runs left, as iceoryx2's
 /// `try_cleanup_dead_nodes` does, unless a shared-memory file of the runs
@@ -232,7 +232,7 @@ const ABANDONED_AFTER: Duration = Duration::from_millis(100);
 /// workers were killed at random hung there. So this is the only cleanup
 /// the runs' processes do (`config` turns iceoryx2's own off), and it
 /// first removes the empty files left unchanged for `ABANDONED_AFTER`,
-/// then puts itself off to a later call while a younger one is there,
+/// then leaves the cleanup to a later call while a younger one is there,
 /// which a live process may be about to size. What remains is a process
 /// killed mid-creation during the cleanup itself.
 pub fn clean_up_dead(node: &Node<ipc::Service>) -> bool {
@@ -243,17 +243,26 @@ pub fn clean_up_dead(node: &Node<ipc::Service>) -> bool {
     ready
 }
 
+/// [`clean_up_dead`] for a process about to leave, which no later call of
+/// its own follows: a half-made file there puts the cleanup off until the
+/// file is sized or old enough to remove, `ABANDONED_AFTER` at most.
+pub fn clean_up_dead_before_leaving(node: &Node<ipc::Service>) {
+    let until = std::time::Instant::now() + ABANDONED_AFTER + ABANDONED_AFTER / 4;
+    while !clean_up_dead(node) && std::time::Instant::now() < until {
+        std::thread::sleep(ABANDONED_AFTER / 20);
+    }
+}
+
 /// Removes the empty files in `dir` named with `prefix` that have not
-/// changed for `age`; true if no empty file of theirs is left. Files it
-/// cannot read are left, and not counted.
+/// changed for `age`; false if an empty file of theirs younger than that
+/// is there. Files it cannot read or remove, such as another user's, are
+/// left, and put nothing off.
 fn ready_to_clean(dir: &std::path::Path, prefix: &str, age: Duration) -> bool {
     let mut ready = true;
     for entry in named_with(dir, prefix) {
         match idle_if_empty(&entry) {
             Some(idle) if idle >= age => {
-                // Gone already, another process having taken it, is as
-                // good; one that cannot be removed is still there.
-                ready &= std::fs::remove_file(entry.path()).is_ok() || !entry.path().exists();
+                let _ = std::fs::remove_file(entry.path());
             }
             Some(_) => ready = false,
             None => {}
@@ -262,16 +271,16 @@ fn ready_to_clean(dir: &std::path::Path, prefix: &str, age: Duration) -> bool {
     ready
 }
 
-/// How long `entry`, an empty file, has gone unchanged (none yet, where
-/// its time is ahead of the clock); `None` for anything else, or an entry
-/// that cannot be read.
+/// How long `entry`, an empty file, has gone unchanged: for ever where its
+/// time is ahead of the clock, which has been set back since; `None` for
+/// anything else, or an entry that cannot be read.
 fn idle_if_empty(entry: &std::fs::DirEntry) -> Option<Duration> {
     let meta = entry.metadata().ok()?;
     if !meta.is_file() || meta.len() > 0 {
         return None;
     }
     let changed = meta.modified().ok()?;
-    Some(changed.elapsed().unwrap_or_default())
+    Some(changed.elapsed().unwrap_or(Duration::MAX))
 }
 
 /// The entries of `dir` whose names start with `prefix`; none where `dir`
@@ -453,5 +462,14 @@ mod tests {
         let stale = file("lander_e.connection", b"", long);
         assert!(ready_to_clean(dir.path(), "lander_", ABANDONED_AFTER));
         assert!(!stale.exists() && fresh.exists());
+
+        // A time ahead of the clock is one from before the clock was set
+        // back: the file is old, not about to be sized.
+        let ahead = dir.path().join("lander_f.connection");
+        std::fs::write(&ahead, b"").unwrap();
+        let f = std::fs::File::options().write(true).open(&ahead).unwrap();
+        f.set_modified(std::time::SystemTime::now() + long).unwrap();
+        assert!(ready_to_clean(dir.path(), "lander_", ABANDONED_AFTER));
+        assert!(!ahead.exists());
     }
 }

@@ -171,7 +171,8 @@ impl Transport for Iceoryx {
 
     fn close(&mut self) {
         self.opened.clear();
-        iox::clean_up_dead(&self.node);
+        // The workers of a run that ended leave this to the coordinator.
+        iox::clean_up_dead_before_leaving(&self.node);
     }
 }
 

@@ -347,7 +347,8 @@ fn sleep_until_one_exits(pids: &[u32], until: Instant) {
     // poll(2) counts whole milliseconds: round up, so as not to wake
     // before `until` and look once more for nothing.
     let ms = i32::try_from(left.as_micros().div_ceil(1000)).unwrap_or(i32::MAX);
-    let count = libc::nfds_t::try_from(polls.len()).unwrap_or(libc::nfds_t::MAX);
+    // One a worker: far inside nfds_t.
+    let count = polls.len() as libc::nfds_t;
     // SAFETY: `polls` holds `count` initialised pollfds, each naming a
     // pidfd that `fds` keeps open for the call.
     unsafe { libc::poll(polls.as_mut_ptr(), count, ms) };
@@ -471,10 +472,23 @@ mod tests {
         let mut children = Children::new(exe, "r".into(), Vec::new(), 0, Placement::default());
         let told = [children.spawn().unwrap(), children.spawn().unwrap()];
         let pids: Vec<u32> = told.iter().map(|c| c.pid).collect();
-        children.await_exit(&pids[..1], Duration::from_secs(10));
+        // Woken by the exit, not by the end of its patience: a wait that
+        // slept it out would take 60 s.
+        let waited = Instant::now();
+        children.await_exit(&pids[..1], Duration::from_secs(60));
+        assert!(
+            waited.elapsed() < Duration::from_secs(30),
+            "slept to the end"
+        );
         // Both sleep alike, so the second may have gone by now too.
         assert!(children.exited().contains(&told[0]), "the first waited for");
+        // stop_all would take its 5 s of patience likewise.
+        let stopping = Instant::now();
         assert_eq!(children.stop_all(&told), 0, "a worker had to be killed");
+        assert!(
+            stopping.elapsed() < Duration::from_secs(4),
+            "slept to the end"
+        );
         assert!(children.is_empty());
     }
 

@@ -49,7 +49,7 @@ pub fn serve(
     // process of the run. A worker of a finished run leaves at once, for
     // its coordinator waits for it.
     if !matches!(exit, Ok(Exit::RunFinished)) {
-        iox::clean_up_dead(&node);
+        iox::clean_up_dead_before_leaving(&node);
     }
     exit
 }
