@@ -317,7 +317,7 @@ fn bad_checkpoints_are_refused_and_nothing_is_overwritten() {
     let path = out.join("checkpoint.bin");
     let mut bad = lander_coordinator::checkpoint::decode(&path, &saved).unwrap();
     bad.config.world.height = 1.0;
-    fs::write(&path, lander_coordinator::checkpoint::encode(&bad)).unwrap();
+    fs::write(&path, lander_coordinator::checkpoint::encode(&bad.as_ref())).unwrap();
     refused(
         &[],
         &["checkpoint.bin: invalid configuration: world.height"],
@@ -492,7 +492,8 @@ fn a_qlearning_checkpoint_that_does_not_fit_is_refused_before_the_folder_is_touc
         &Checkpoint {
             config,
             state: Saved::Learning(state),
-        },
+        }
+        .as_ref(),
     )
     .unwrap();
     let before: Vec<_> = fs::read_dir(dir.path())

@@ -7,7 +7,7 @@
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use lander_coordinator::checkpoint::{self, Checkpoint, Saved};
+use lander_coordinator::checkpoint::{self, CheckpointRef, SavedRef};
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::{Backend, EvalError};
 use lander_coordinator::run_files::{write_json, RunLog, EPISODES};
@@ -70,9 +70,9 @@ fn key(cfg: &RunConfig) -> StreamKey {
 fn save(cfg: &RunConfig, out: &Path, state: &LearnState) -> anyhow::Result<()> {
     checkpoint::save(
         out,
-        &Checkpoint {
-            config: cfg.clone(),
-            state: Saved::Learning(state.clone()),
+        &CheckpointRef {
+            config: cfg,
+            state: SavedRef::Learning(state),
         },
     )?;
     Ok(())

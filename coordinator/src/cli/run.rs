@@ -6,7 +6,7 @@ use super::watch::{trial_label, Watch};
 use anyhow::{bail, Context};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use lander_coordinator::checkpoint::{self, Checkpoint, Saved};
+use lander_coordinator::checkpoint::{self, CheckpointRef, Saved, SavedRef};
 use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::Backend;
 use lander_coordinator::experiment::store::first_difference;
@@ -297,9 +297,9 @@ fn evolve(
         log.sync()?;
         checkpoint::save(
             out,
-            &Checkpoint {
-                config: cfg.clone(),
-                state: Saved::Evolving(state),
+            &CheckpointRef {
+                config: cfg,
+                state: SavedRef::Evolving(&state),
             },
         )?;
         Ok(())
