@@ -303,6 +303,19 @@ impl TrainJob {
     pub fn start(&self) -> u32 {
         self.from.as_ref().map_or(0, |s| s.episodes)
     }
+
+    /// The leg of this trial from `from` (its start, where `None`) to
+    /// `end` of the episodes flown by then, and never past the trial's own
+    /// end. The trial's own starting state is not copied: it may hold
+    /// millions of weights.
+    pub fn leg(&self, from: Option<LearnState>, end: impl FnOnce(u32) -> u32) -> TrainJob {
+        let mut leg = TrainJob {
+            from,
+            ..TrainJob::whole(self.env, self.guide, self.learn, self.key)
+        };
+        leg.until = self.until.min(end(leg.start()));
+        leg
+    }
 }
 
 /// A trial's leg as a worker serves it: the leg's records, the summary so
@@ -538,5 +551,32 @@ mod tests {
         assert!(bad(&|s| s.first_safe = Some(5)).contains("first landing"));
         assert!(bad(&|s| s.weights.push((1 << 30, 1.0))).contains("past the agent's"));
         assert!(bad(&|s| s.weights.push((3, f64::NAN))).contains("weight 3 is NaN"));
+    }
+
+    #[test]
+    fn a_leg_starts_where_its_state_stands_and_ends_at_the_trials_end_at_most() {
+        let learn = LearnParams {
+            episodes: 40,
+            ..LearnParams::default()
+        };
+        let trial = TrainJob::whole(
+            test_env(150.0, 200.0),
+            GuideParams::default(),
+            learn,
+            StreamKey::new(3, 2, 0, 0),
+        );
+        let first = trial.leg(None, |start| start + 15);
+        assert_eq!((first.start(), first.until), (0, 15));
+        let state = run_training(&first).unwrap().state;
+        let second = trial.leg(state.clone(), |start| start + 15);
+        assert_eq!((second.start(), second.until), (15, 30));
+        assert_eq!(second.from, state);
+        // Cut at the trial's end, and of the trial otherwise.
+        let last = trial.leg(state, |start| start + 100);
+        assert_eq!(last.until, 40);
+        assert_eq!(
+            (last.env, last.learn, last.key),
+            (trial.env, trial.learn, trial.key)
+        );
     }
 }

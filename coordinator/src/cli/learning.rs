@@ -251,12 +251,9 @@ pub fn can_start(cfg: &RunConfig, pool: Option<&dyn Backend>, every: u64) -> any
 /// The trial's leg from `from` (its start, where `None`), as it goes to
 /// the pool: to the next checkpoint ([`leg_end`]).
 fn leg(cfg: &RunConfig, from: Option<LearnState>, every: u64) -> TrainJob {
-    let start = from.as_ref().map_or(0, |s| s.episodes);
-    TrainJob {
-        from,
-        until: leg_end(start, every, cfg.qlearning.episodes),
-        ..TrainJob::whole(cfg.env(0), cfg.guided, cfg.qlearning, key(cfg))
-    }
+    let episodes = cfg.qlearning.episodes;
+    TrainJob::whole(cfg.env(0), cfg.guided, cfg.qlearning, key(cfg))
+        .leg(from, |start| leg_end(start, every, episodes))
 }
 
 /// Where a leg from episode `start` ends: at the next multiple of `every`

@@ -81,14 +81,7 @@ impl<T: Transport> Trainer for Pool<T> {
 /// The leg of `trial` from `from` (its start, where `None`): at most
 /// `per_chunk` episodes, and none past the trial's own end.
 fn leg(trial: &TrainJob, from: Option<LearnState>, per_chunk: u32) -> TrainJob {
-    let start = from.as_ref().map_or(0, |s| s.episodes);
-    // Not `..trial.clone()`, which would copy the trial's own starting
-    // state, millions of weights maybe, only to drop it.
-    TrainJob {
-        until: trial.until.min(start.saturating_add(per_chunk)),
-        from,
-        ..TrainJob::whole(trial.env, trial.guide, trial.learn, trial.key)
-    }
+    trial.leg(from, |start| start.saturating_add(per_chunk))
 }
 
 /// A trial's records up to the end of `after`, the leg that followed
