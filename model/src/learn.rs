@@ -373,18 +373,23 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_trial_flown_in_legs_is_the_trial_flown_whole() {
+    /// A short trial, of 40 episodes.
+    fn short_trial() -> TrainJob {
         let learn = LearnParams {
             episodes: 40,
             ..LearnParams::default()
         };
-        let whole_job = TrainJob::whole(
+        TrainJob::whole(
             test_env(150.0, 200.0),
             GuideParams::default(),
             learn,
             StreamKey::new(3, 2, 0, 0),
-        );
+        )
+    }
+
+    #[test]
+    fn a_trial_flown_in_legs_is_the_trial_flown_whole() {
+        let whole_job = short_trial();
         let whole = run_training(&whole_job).unwrap();
         assert!(whole.is_plausible(&whole_job) && whole.state.is_none());
         let (mut from, mut episodes, mut training) = (None, Vec::new(), None);
@@ -555,16 +560,7 @@ mod tests {
 
     #[test]
     fn a_leg_starts_where_its_state_stands_and_ends_at_the_trials_end_at_most() {
-        let learn = LearnParams {
-            episodes: 40,
-            ..LearnParams::default()
-        };
-        let trial = TrainJob::whole(
-            test_env(150.0, 200.0),
-            GuideParams::default(),
-            learn,
-            StreamKey::new(3, 2, 0, 0),
-        );
+        let trial = short_trial();
         let first = trial.leg(None, |start| start + 15);
         assert_eq!((first.start(), first.until), (0, 15));
         let state = run_training(&first).unwrap().state;
