@@ -68,8 +68,12 @@ impl<T: Transport> Pool<T> {
             telemetry,
             opts,
         };
-        for _ in 0..pool.opts.spawn {
-            let child = pool.children.spawn()?;
+        // Every worker started before any link is opened for one: a
+        // worker takes milliseconds to start, opening a link most of one.
+        let started = (0..pool.opts.spawn)
+            .map(|_| pool.children.spawn())
+            .collect::<Result<Vec<_>, _>>()?;
+        for child in started {
             pool.transport.expect(child.id);
         }
         Ok(pool)
