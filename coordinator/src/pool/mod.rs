@@ -10,7 +10,8 @@
 //! between results; where it has a CPU that would otherwise idle
 //! ([`PoolOptions::share`]), it first flies a queued chunk itself
 //! (`Pool::fly_a_share`); it flies so the share of the worker on its own
-//! CPU, which is sent no evaluation chunk ([`PoolOptions::stand_in`]), and
+//! CPU, which is sent no evaluation chunk ([`PoolOptions::stand_in`]),
+//! from the start, while that worker is still starting, and
 //! there, with that CPU to itself, polls for answers for a bounded,
 //! adaptive time before it sleeps (`Pool::spin_for_answers`, iceoryx2
 //! only). A chunk whose worker dies (its process exits, its node is found

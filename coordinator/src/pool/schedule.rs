@@ -431,9 +431,13 @@ impl<T: Transport> Pool<T> {
     ) -> bool {
         // Without a worker yet the chunks wait for workers, not for room:
         // a run's one Q(λ) trial goes to its worker, not to the
-        // coordinator that started before it.
-        let share = self.opts.share || self.stands_in_for_any();
-        if !share || !check.shares || self.links.is_empty() {
+        // coordinator that started before it. Only in place of the worker
+        // on its CPU, while that one starts, does the coordinator fly
+        // before any has joined.
+        let share = (self.opts.share && !self.links.is_empty())
+            || self.stands_in_for_any()
+            || self.stands_in_while_starting();
+        if !share || !check.shares {
             return false;
         }
         let n = chunks.len();
@@ -531,6 +535,20 @@ impl<T: Transport> Pool<T> {
     /// ([`Pool::stands_in_for`]).
     fn stands_in_for_any(&self) -> bool {
         (0..self.links.len()).any(|i| self.stands_in_for(i))
+    }
+
+    /// Whether the coordinator flies in place of the worker on its CPU
+    /// while that worker is still starting: in a step of evaluation
+    /// (`Pool::stands_in`), the worker spawned beside it has not joined
+    /// yet. The coordinator then flies whatever waits rather than sleep
+    /// until a worker joins: a worker takes milliseconds to start, dozens
+    /// of a trial's generations.
+    fn stands_in_while_starting(&self) -> bool {
+        self.stands_in
+            && self
+                .children
+                .beside()
+                .is_some_and(|c| !self.links.iter().any(|l| ChildId::of(l) == c))
     }
 
     /// Hands the last of `chunks`, just cut while the rest of its generation

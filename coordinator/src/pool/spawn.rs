@@ -156,12 +156,17 @@ impl Children {
     /// True if `worker` is a live worker started here on the CPU that the
     /// coordinator's thread shares with it ([`Placement::coordinator`]).
     pub fn beside_coordinator(&self, worker: ChildId) -> bool {
-        let Some(cpu) = self.placement.coordinator else {
-            return false;
-        };
+        self.beside() == Some(worker)
+    }
+
+    /// The live worker started here on the CPU that the coordinator's
+    /// thread shares with it, if there is one.
+    pub fn beside(&self) -> Option<ChildId> {
+        let cpu = self.placement.coordinator?;
         self.procs
             .iter()
-            .any(|p| p.is(worker) && p.cpu == Some(cpu))
+            .find(|p| p.cpu == Some(cpu))
+            .map(Spawned::child_id)
     }
 
     /// Starts one more worker, on the next free CPU if any.

@@ -213,3 +213,25 @@ fn standing_in_the_coordinator_polls_for_its_last_answers_before_it_sleeps() {
         assert_eq!(pool.children.stop_all(&[]), 0);
     }
 }
+
+#[test]
+fn while_the_worker_on_its_cpu_starts_the_coordinator_flies_in_its_place() {
+    let in_process = step(&mut InProcess::new(2).unwrap());
+    // Once every worker but the one beside the coordinator has joined,
+    // and before any has: that one is spawned, with no link yet.
+    for joined in [usize::MAX, 0] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut pool = on_every_cpu(dir.path());
+        let others = pool.links.len() - 1;
+        pool.links.truncate(joined.min(others));
+        assert!(step(&mut pool) == in_process, "{joined} joined");
+        assert!(
+            pool.flown_here() > 0,
+            "the coordinator slept while its neighbour started"
+        );
+        if pool.links.is_empty() {
+            assert_eq!(pool.transport.sleeps, 0, "it waited for a worker");
+        }
+        assert_eq!(pool.children.stop_all(&[]), 0);
+    }
+}
