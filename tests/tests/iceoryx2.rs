@@ -262,9 +262,9 @@ fn the_coordinator_flies_a_share_only_where_told() {
                 .filter_map(|l| l.rsplit(' ').next()?.parse::<f64>().ok())
                 .sum()
         };
-        // The coordinator stands in only once the worker beside it has
-        // joined, which on a loaded host may take longer than a few
-        // generations: count from there.
+        // Chunks go out only once the workers have joined, which on a
+        // loaded host may take longer than a few generations (the
+        // coordinator flies them meanwhile): count from there.
         let all = workers.parse::<f64>().unwrap();
         assert!(
             wait_until(60, || counter("lander_workers_connected") >= all),
