@@ -263,8 +263,8 @@ fn the_coordinator_flies_a_share_only_where_told() {
                 .sum()
         };
         // Chunks go out only once the workers have joined, which on a
-        // loaded host may take longer than a few generations (the
-        // coordinator flies them meanwhile): count from there.
+        // loaded host may take longer than a few generations: count from
+        // there.
         let all = workers.parse::<f64>().unwrap();
         assert!(
             wait_until(60, || counter("lander_workers_connected") >= all),

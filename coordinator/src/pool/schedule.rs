@@ -416,7 +416,9 @@ impl<T: Transport> Pool<T> {
 
     /// With [`PoolOptions::share`](super::PoolOptions::share) and a `check`
     /// that shares, flies one chunk here instead of sleeping, once a worker
-    /// has joined: the first still queued (every worker's queue being
+    /// has joined; in place of the worker on its CPU
+    /// ([`Pool::stands_in_for`], [`Pool::stands_in_while_starting`]), even
+    /// before any has: the first still queued (every worker's queue being
     /// full), or else the last queued at the worker with the longest
     /// backlog, taken back as an idle worker takes it (a check taken back
     /// is decided here). Returns whether it flew one. Between chunks the

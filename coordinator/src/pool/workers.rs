@@ -68,13 +68,19 @@ impl<T: Transport> Pool<T> {
             telemetry,
             opts,
         };
-        // Every worker started before any link is opened for one: a
-        // worker takes milliseconds to start, opening a link most of one.
-        let started = (0..pool.opts.spawn)
-            .map(|_| pool.children.spawn())
-            .collect::<Result<Vec<_>, _>>()?;
-        for child in started {
-            pool.transport.expect(child.id);
+        // Each worker's link is opened one spawn behind: the next worker
+        // starts first (opening a link takes most of a millisecond, which
+        // its start would wait for), and still every link is open before
+        // its worker's server is up, a few milliseconds after its start.
+        let mut last = None;
+        for _ in 0..pool.opts.spawn {
+            let child = pool.children.spawn()?;
+            if let Some(before) = last.replace(child) {
+                pool.transport.expect(before.id);
+            }
+        }
+        if let Some(last) = last {
+            pool.transport.expect(last.id);
         }
         Ok(pool)
     }

@@ -217,13 +217,16 @@ fn standing_in_the_coordinator_polls_for_its_last_answers_before_it_sleeps() {
 #[test]
 fn while_the_worker_on_its_cpu_starts_the_coordinator_flies_in_its_place() {
     let in_process = step(&mut InProcess::new(2).unwrap());
-    // Once every worker but the one beside the coordinator has joined,
-    // and before any has: that one is spawned, with no link yet.
-    for joined in [usize::MAX, 0] {
+    // Once every worker but the one beside the coordinator has joined (on
+    // more than one CPU), and before any has: that one is spawned, with no
+    // link yet. The first case comes first: without the stand-in it fails
+    // where the second waits for ever.
+    let others = lander_protocol::host::allowed_cpus().len() - 1;
+    let cases = if others > 0 { vec![others, 0] } else { vec![0] };
+    for joined in cases {
         let dir = tempfile::tempdir().unwrap();
         let mut pool = on_every_cpu(dir.path());
-        let others = pool.links.len() - 1;
-        pool.links.truncate(joined.min(others));
+        pool.links.truncate(joined);
         assert!(step(&mut pool) == in_process, "{joined} joined");
         assert!(
             pool.flown_here() > 0,
