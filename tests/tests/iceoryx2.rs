@@ -167,15 +167,25 @@ fn ctrl_c_stops_the_run_cleanly_with_what_it_flew_kept() {
 
 /// Starts `lander run` with `args` on two spawned workers, writing to
 /// `dir`, and returns it with its workers' pids once `lines` generations
-/// are written.
+/// are written and both workers have joined.
 fn under_way(iox: &Iox, dir: &Path, args: &[&str], lines: usize) -> (Child, Vec<u32>) {
     let mut args = args.to_vec();
     args.extend(["--workers", "2"]);
     let child = start(iox, dir, &args);
     let log = dir.join("generations.jsonl");
+    // Both workers joined too: the coordinator flies in place of the one
+    // beside it while that one starts, so the run may get going first,
+    // and a worker disturbed before it joined leaves no event of its own.
+    let joined = || {
+        lander_telemetry::events::read(dir)
+            .unwrap_or_default()
+            .iter()
+            .filter(|e| e["event"] == "worker_joined")
+            .count()
+    };
     assert!(
-        wait_until(60, || lines_in(&log) >= lines),
-        "the run did not get going"
+        wait_until(60, || lines_in(&log) >= lines && joined() >= 2),
+        "the run did not get going over both workers"
     );
     let workers = worker_children(child.id());
     assert_eq!(workers.len(), 2);
