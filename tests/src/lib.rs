@@ -284,6 +284,16 @@ pub fn events(dir: &Path) -> Vec<Value> {
     lander_telemetry::events::read(dir).expect("events.jsonl reads back")
 }
 
+/// The process ids of the workers that joined, as their `worker_joined`
+/// events give them.
+pub fn joined(events: &[Value]) -> Vec<u32> {
+    events
+        .iter()
+        .filter(|e| e["event"] == "worker_joined")
+        .filter_map(|e| u32::try_from(e["pid"].as_u64()?).ok())
+        .collect()
+}
+
 /// The id of the worker with process id `pid`, as its `worker_joined`
 /// event gave it.
 pub fn worker_id_of(events: &[Value], pid: u32) -> Option<String> {

@@ -3,8 +3,8 @@
 //! hang, or come and go.
 
 use lander_tests::{
-    events, free_port, has_exited, http_get, interrupt, json_lines, json_out, lines_in, signal,
-    stderr, wait_until, without_wall_time, worker_children, worker_id_of, Iox,
+    events, free_port, has_exited, http_get, interrupt, joined, json_lines, json_out, lines_in,
+    signal, stderr, wait_until, without_wall_time, worker_children, worker_id_of, Iox,
 };
 use serde_json::Value;
 use std::fs;
@@ -133,14 +133,9 @@ fn a_clean_run_leaves_no_processes_and_no_files() {
     summary_of(child);
     // The workers as the run's events name them: the run may end before a
     // look at the coordinator's children would find them both.
-    let seen: Vec<u64> = json_lines(&dir.path().join("events.jsonl"))
-        .iter()
-        .filter(|e| e["event"] == "worker_joined")
-        .filter_map(|e| e["pid"].as_u64())
-        .collect();
+    let seen = joined(&json_lines(&dir.path().join("events.jsonl")));
     assert_eq!(seen.len(), 2, "two workers were spawned");
     for worker in seen {
-        let worker = u32::try_from(worker).unwrap();
         assert!(has_exited(worker), "worker {worker} outlived the run");
     }
     assert_eq!(iox.shm_files(), Vec::<String>::new());
@@ -176,15 +171,10 @@ fn under_way(iox: &Iox, dir: &Path, args: &[&str], lines: usize) -> (Child, Vec<
     // Both workers joined too: the coordinator flies in place of the one
     // beside it while that one starts, so the run may get going first,
     // and a worker disturbed before it joined leaves no event of its own.
-    let joined = || {
-        lander_telemetry::events::read(dir)
-            .unwrap_or_default()
-            .iter()
-            .filter(|e| e["event"] == "worker_joined")
-            .count()
-    };
+    // (Read while the run writes it: no file yet is no event yet.)
+    let both = || joined(&lander_telemetry::events::read(dir).unwrap_or_default()).len() >= 2;
     assert!(
-        wait_until(60, || lines_in(&log) >= lines && joined() >= 2),
+        wait_until(60, || lines_in(&log) >= lines && both()),
         "the run did not get going over both workers"
     );
     let workers = worker_children(child.id());

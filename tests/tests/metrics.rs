@@ -6,7 +6,7 @@
 //! error at start.
 
 use lander_tests::{
-    free_port, http_get, interrupt, signal, stderr, wait_until, worker_children, Iox,
+    free_port, http_get, interrupt, joined, signal, stderr, wait_until, worker_children, Iox,
 };
 use serde_json::Value;
 use std::io::Write;
@@ -265,10 +265,13 @@ fn json_logs_parse_line_by_line_and_spawned_workers_log_json_too() {
     let dir = tempfile::tempdir().unwrap();
     let addr = format!("127.0.0.1:{}", free_port());
     let run = long_run(&iox, dir.path(), &addr, &["--log-format", "json"]);
-    let events = dir.path().join("run").join("events.jsonl");
-    let joined =
-        || std::fs::read_to_string(&events).map_or(0, |t| t.matches("worker_joined").count());
-    assert!(wait_until(30, || joined() == 2), "the workers never joined");
+    let run_dir = dir.path().join("run");
+    let events = run_dir.join("events.jsonl");
+    let joined_now = || joined(&lander_telemetry::events::read(&run_dir).unwrap_or_default()).len();
+    assert!(
+        wait_until(30, || joined_now() == 2),
+        "the workers never joined"
+    );
     let workers = worker_children(run.id());
     assert_eq!(workers.len(), 2, "{workers:?}");
     // They share the coordinator's stderr, so they log in its format.
