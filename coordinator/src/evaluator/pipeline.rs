@@ -7,6 +7,11 @@
 //! meanwhile. One thread breeds them all, rather than whichever takes the
 //! next, so that the generator's state stays in one core's cache.
 //!
+//! The fliers claim genomes in runs that shrink as the generation runs out
+//! ([`claim_size`]): a claim and its count of done genomes are the only
+//! writes the threads share, and a genome's flight takes 2–3 µs, so one
+//! claim a genome cost each thread a few percent of its time.
+//!
 //! **The crew stays awake between generations.** A trial's generations
 //! follow each other a few microseconds apart (the breeder records one and
 //! sets up the next), and a rayon thread that finds no work sleeps after
@@ -75,10 +80,12 @@ struct Handover {
     done: AtomicUsize,
     /// A flier panicked: the breeder, waiting for it, panics too.
     failed: AtomicBool,
+    /// The threads that fly it, the breeder's among them.
+    fliers: usize,
 }
 
 impl Handover {
-    fn new(population: usize, fly: Fly) -> Handover {
+    fn new(population: usize, fly: Fly, fliers: usize) -> Handover {
         Handover {
             slots: (0..population).map(|_| Mutex::new(Slot::Empty)).collect(),
             flier: fly,
@@ -86,6 +93,7 @@ impl Handover {
             claimed: AtomicUsize::new(0),
             done: AtomicUsize::new(0),
             failed: AtomicBool::new(false),
+            fliers,
         }
     }
 
@@ -107,22 +115,31 @@ impl Handover {
         }
     }
 
-    /// Flies the next genome not yet taken, as soon as it is bred, until
-    /// none is left; returns how many this thread flew.
+    /// Flies the next genomes not yet taken, each as soon as it is bred,
+    /// until none is left; returns how many this thread flew.
     fn fly(&self) -> usize {
         let mut flew = 0;
+        let population = self.population();
         loop {
-            let i = self.claimed.fetch_add(1, Ordering::Relaxed);
-            if i >= self.population() {
+            let left = population.saturating_sub(self.claimed.load(Ordering::Relaxed));
+            if left == 0 {
                 return flew;
             }
-            flew += 1;
-            let _done = Done(self);
-            wait_until(|| self.ready.load(Ordering::Acquire) > i);
-            let taken = std::mem::replace(&mut *self.slot(i), Slot::Empty);
-            if let Slot::Bred(mut genome) = taken {
-                let evaluation = (self.flier)(i, &mut genome);
-                *self.slot(i) = Slot::Flown(genome, evaluation);
+            let take = claim_size(left, self.fliers);
+            let first = self.claimed.fetch_add(take, Ordering::Relaxed);
+            let claim = first..(first + take).min(population);
+            if claim.is_empty() {
+                return flew;
+            }
+            let _done = Done(self, claim.len());
+            for i in claim {
+                flew += 1;
+                wait_until(|| self.ready.load(Ordering::Acquire) > i);
+                let taken = std::mem::replace(&mut *self.slot(i), Slot::Empty);
+                if let Slot::Bred(mut genome) = taken {
+                    let evaluation = (self.flier)(i, &mut genome);
+                    *self.slot(i) = Slot::Flown(genome, evaluation);
+                }
             }
         }
     }
@@ -146,16 +163,26 @@ impl Handover {
     }
 }
 
-/// Counts a taken genome as done when dropped, and a panic flying it as
-/// a failure, so that the breeder never waits for it in vain.
-struct Done<'a>(&'a Handover);
+/// How many genomes a flier claims at once, of `left` not yet claimed by
+/// `fliers` threads: an even share's half, at least one (guided
+/// scheduling, as OpenMP's `schedule(guided)`). The claim counter and the
+/// done counter cross between the cores a few times a generation rather
+/// than once a genome, and the last claims are single genomes, so that
+/// the threads still finish together.
+fn claim_size(left: usize, fliers: usize) -> usize {
+    (left / (2 * fliers.max(1))).max(1)
+}
+
+/// Counts the genomes of a claim as done when dropped, and a panic flying
+/// one as a failure, so that the breeder never waits for them in vain.
+struct Done<'a>(&'a Handover, usize);
 
 impl Drop for Done<'_> {
     fn drop(&mut self) {
         if std::thread::panicking() {
             self.0.failed.store(true, Ordering::Release);
         }
-        self.0.done.fetch_add(1, Ordering::Release);
+        self.0.done.fetch_add(self.1, Ordering::Release);
     }
 }
 
@@ -211,7 +238,7 @@ impl Crew {
     ) -> Vec<(Genome, Evaluation)> {
         let traced = tracing::enabled!(target: PHASES, tracing::Level::TRACE);
         let posted = traced.then(Instant::now);
-        let handover = Arc::new(Handover::new(population, fly));
+        let handover = Arc::new(Handover::new(population, fly, self.hands + 1));
         self.post(Arc::clone(&handover));
         self.call_helpers(pool);
         handover.breed(bred);
@@ -444,6 +471,26 @@ mod tests {
                 "{threads} threads"
             );
         }
+    }
+
+    #[test]
+    fn claims_shrink_as_genomes_run_out_and_end_one_at_a_time() {
+        // 100 genomes, 2 fliers: a quarter of those left each time.
+        let mut left = 100;
+        let mut claims = Vec::new();
+        while left > 0 {
+            let take = claim_size(left, 2).min(left);
+            claims.push(take);
+            left -= take;
+        }
+        assert_eq!(
+            claims,
+            [25, 18, 14, 10, 8, 6, 4, 3, 3, 2, 1, 1, 1, 1, 1, 1, 1]
+        );
+        // One flier, or more fliers than genomes: still at least one.
+        assert_eq!(claim_size(10, 1), 5);
+        assert_eq!(claim_size(3, 8), 1);
+        assert_eq!(claim_size(1, 0), 1);
     }
 
     #[test]
