@@ -197,9 +197,26 @@ impl Wheel {
 
 /// Crosses two parents into two children.
 pub fn crossover(p: &GaParams, a: &[Gene], b: &[Gene], rng: &mut impl Rng) -> (Genome, Genome) {
-    let (mut x, mut y) = (a.to_vec(), b.to_vec());
+    let (mut x, mut y) = (Genome::new(), Genome::new());
+    crossover_into(p, a, b, rng, (&mut x, &mut y));
+    (x, y)
+}
+
+/// [`crossover`], writing the two children over `into`, whose memory it
+/// reuses.
+pub fn crossover_into(
+    p: &GaParams,
+    a: &[Gene],
+    b: &[Gene],
+    rng: &mut impl Rng,
+    (x, y): (&mut Genome, &mut Genome),
+) {
+    x.clear();
+    x.extend_from_slice(a);
+    y.clear();
+    y.extend_from_slice(b);
     if rng.random::<f64>() >= p.crossover_rate {
-        return (x, y);
+        return;
     }
     let swap_rate = match p.crossover {
         Crossover::Uniform => 0.5,
@@ -213,7 +230,6 @@ pub fn crossover(p: &GaParams, a: &[Gene], b: &[Gene], rng: &mut impl Rng) -> (G
         *gx = std::hint::select_unpredictable(swap, b, a);
         *gy = std::hint::select_unpredictable(swap, a, b);
     }
-    (x, y)
 }
 
 /// Mutates each gene independently: a new action with probability `m`, a
@@ -258,6 +274,8 @@ pub struct Offspring<'a, R> {
     spare: Option<Genome>,
     /// Children still to be yielded after the elites.
     left: usize,
+    /// Genomes no longer needed, whose memory the offspring reuse.
+    buffers: Vec<Genome>,
 }
 
 impl<'a, R: Rng> Offspring<'a, R> {
@@ -272,7 +290,21 @@ impl<'a, R: Rng> Offspring<'a, R> {
             wheel: Wheel::new(fitness),
             rng,
             spare: None,
+            buffers: Vec::new(),
         }
+    }
+
+    /// Breeds into the memory of `buffers`, genomes no longer needed (the
+    /// generation before the parents), rather than allocating a genome
+    /// for each: the same offspring, without a hundred allocations and
+    /// frees a generation.
+    pub fn reusing(mut self, buffers: Vec<Genome>) -> Self {
+        self.buffers = buffers;
+        self
+    }
+
+    fn buffer(&mut self) -> Genome {
+        self.buffers.pop().unwrap_or_default()
     }
 
     /// How many genomes the generation holds.
@@ -286,7 +318,9 @@ impl<R: Rng> Iterator for Offspring<'_, R> {
 
     fn next(&mut self) -> Option<Genome> {
         if let Some(i) = self.elites.next() {
-            return Some(self.parents[i].clone());
+            let mut elite = self.buffer();
+            elite.clone_from(&self.parents[i]);
+            return Some(elite);
         }
         if self.left == 0 {
             return None;
@@ -295,9 +329,10 @@ impl<R: Rng> Iterator for Offspring<'_, R> {
         if let Some(b) = self.spare.take() {
             return Some(b);
         }
+        let (mut a, mut b) = (self.buffer(), self.buffer());
         let mum = &self.parents[self.wheel.spin(&mut self.rng)];
         let dad = &self.parents[self.wheel.spin(&mut self.rng)];
-        let (mut a, mut b) = crossover(self.p, mum, dad, &mut self.rng);
+        crossover_into(self.p, mum, dad, &mut self.rng, (&mut a, &mut b));
         mutate(self.p, &mut a, &mut self.rng);
         // An odd last pair's second child is bred, and its draws made,
         // though it has no place.

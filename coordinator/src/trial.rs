@@ -129,6 +129,9 @@ pub struct TrialRun {
     /// fitness: what an empty `population` is bred from.
     parents: Vec<Genome>,
     fitness: Vec<f64>,
+    /// The generation before `parents`, kept for its memory only: the next
+    /// breeding reuses it (`Offspring::reusing`).
+    retired: Vec<Genome>,
     /// The best individual of the current attempt.
     best: Option<Best>,
     result: Option<TrialResult>,
@@ -150,6 +153,7 @@ impl TrialRun {
             population: Vec::new(),
             parents: Vec::new(),
             fitness: Vec::new(),
+            retired: Vec::new(),
             best: None,
             result: None,
         };
@@ -174,10 +178,10 @@ impl TrialRun {
     /// be bred.
     pub fn batch(&mut self) -> Batch<'_> {
         let key = self.key(self.generation);
-        let offspring = self
-            .population
-            .is_empty()
-            .then(|| offspring(&self.cfg.ga, &self.parents, &self.fitness, key));
+        let offspring = self.population.is_empty().then(|| {
+            offspring(&self.cfg.ga, &self.parents, &self.fitness, key)
+                .reusing(std::mem::take(&mut self.retired))
+        });
         Batch::new(
             self.env,
             self.pass,
@@ -224,7 +228,8 @@ impl TrialRun {
             self.fitness
                 .extend(evaluations.iter().map(|e| e.outcome.fitness));
             std::mem::swap(&mut self.parents, &mut self.population);
-            self.population.clear();
+            self.retired.clear();
+            self.retired.append(&mut self.population);
             self.generation += 1;
         }
         generation

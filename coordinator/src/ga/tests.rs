@@ -206,6 +206,35 @@ proptest! {
     }
 }
 
+proptest! {
+    /// Bred into the memory of old genomes, of any length and any number,
+    /// the generation is the one bred into fresh memory, draws and all.
+    #[test]
+    fn offspring_bred_into_old_genomes_are_those_bred_fresh(
+        seed in any::<u64>(),
+        fitness in proptest::collection::vec(-10.0f64..1000.0, 1..40),
+        elites in 0usize..6,
+        old in proptest::collection::vec(0usize..20, 0..50),
+    ) {
+        let p = GaParams {
+            population: fitness.len(),
+            elites: elites.min(fitness.len()),
+            genome_length: 7,
+            ..GaParams::default()
+        };
+        let population = random_population(&p, &mut rng(seed));
+        let buffers: Vec<Genome> = old
+            .iter()
+            .map(|&n| vec![Gene::new(Action::Thrust, 3); n])
+            .collect();
+        let mut fresh = Offspring::new(&p, &population, &fitness, rng(seed ^ 1));
+        let mut reused =
+            Offspring::new(&p, &population, &fitness, rng(seed ^ 1)).reusing(buffers);
+        prop_assert_eq!(fresh.by_ref().collect::<Vec<_>>(), reused.by_ref().collect::<Vec<_>>());
+        prop_assert_eq!(fresh.rng.random::<u64>(), reused.rng.random::<u64>(), "the draws after it");
+    }
+}
+
 /// SPEC §3's generation as a loop that fills it pair by pair: the oracle
 /// of [`Offspring`].
 fn pair_by_pair(
