@@ -6,7 +6,7 @@
 
 use super::schedule::{chunk_ranges, Chunk, Early};
 use super::verify::{self, Check};
-use super::{Pool, Transport};
+use super::{Pool, Transport, DEPTH, SHARED_STEP_DEPTH};
 use crate::evaluator::{Batch, Busy, EvalError, Evaluator, Trainer};
 use lander_model::learn::{run_training, LearnState};
 use lander_model::{Action, Evaluation, TrainJob, TrainResult};
@@ -203,6 +203,20 @@ impl<T: Transport> Evaluator for Pool<T> {
         &mut self,
         next: &mut dyn Iterator<Item = Batch<'a>>,
     ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
+        let (least, most) = next.size_hint();
+        self.depth = self.depth_for(most.unwrap_or(least).max(1));
+        let evaluations = self.evaluate_step(next);
+        self.depth = DEPTH;
+        evaluations
+    }
+}
+
+impl<T: Transport> Pool<T> {
+    /// [`Pool::evaluate_each`]'s step, at the depth it set.
+    fn evaluate_step<'a>(
+        &mut self,
+        next: &mut dyn Iterator<Item = Batch<'a>>,
+    ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
         // Before any chunk goes out early, as before the hand-out.
         self.await_first_workers()?;
         // A coordinator that flies a share counts as one more worker.
@@ -316,9 +330,21 @@ impl<T: Transport> Evaluator for Pool<T> {
         }
         Ok(evaluations)
     }
-}
 
-impl<T: Transport> Pool<T> {
+    /// How many chunks a worker may hold in a step of `batches` batches:
+    /// [`SHARED_STEP_DEPTH`] where it is a single batch and the coordinator
+    /// flies a share (its own, or that of the worker beside it), else
+    /// [`DEPTH`].
+    fn depth_for(&self, batches: usize) -> usize {
+        let stands_in = self.opts.stand_in && self.opts.verify == 0.0;
+        let shares = self.opts.share || (stands_in && self.children.beside().is_some());
+        if batches == 1 && shares {
+            SHARED_STEP_DEPTH
+        } else {
+            DEPTH
+        }
+    }
+
     /// How many of `workers` fly at once: workers spawned here no more
     /// than there are CPUs to run them.
     fn at_once(&self, workers: usize) -> usize {

@@ -3,8 +3,10 @@
 //! ([`iceoryx`]), zenoh across hosts ([`zenoh`]).
 //!
 //! Each generation is split into chunks, several per worker and largest
-//! first, queued round-robin up to [`DEPTH`] per worker; any left over go
-//! to whichever worker has room first. Once none is left to hand out, a
+//! first, queued round-robin up to [`DEPTH`] per worker
+//! ([`SHARED_STEP_DEPTH`] in a single trial's step that the coordinator
+//! flies a share of); any left over go to whichever worker has room
+//! first. Once none is left to hand out, a
 //! worker that has answered everything takes the last queued chunk of a
 //! busy one (`Pool::rebalance`). The pool sleeps on its `wake` event
 //! between results; where it has a CPU that would otherwise idle
@@ -74,6 +76,16 @@ use std::time::Duration;
 /// generation is handed out whole as it starts, round-robin, and the
 /// coordinator need not wake until a worker has answered all it holds.
 pub const DEPTH: usize = 4;
+
+/// Chunks queued at a worker at once in a step of a single batch that the
+/// coordinator flies a share of (`Pool::depth_for`). Such a step is cut
+/// into chunks of a few genomes, largest first, and the first go out while
+/// the rest are bred: four of them would hold the step's largest chunks
+/// at the worker to its end, where the coordinator, run dry, could take
+/// back only one of those and the worker would wait for it. Two keep the
+/// worker busy for as long as the coordinator flies a chunk of its own,
+/// and the step ends on the small ones.
+pub const SHARED_STEP_DEPTH: usize = 2;
 
 /// How a pool finds its workers.
 #[derive(Clone, Debug)]
@@ -166,6 +178,9 @@ pub struct Pool<T: Transport> {
     /// would keep the coordinator from the answers for as long as it
     /// lasts.
     stands_in: bool,
+    /// Chunks a worker may hold in the step under way: [`DEPTH`], or
+    /// [`SHARED_STEP_DEPTH`] (`Pool::depth_for`).
+    depth: usize,
     /// The most episodes of a Q(λ) trial one chunk flies
     /// ([`lander_protocol::wire::MOST_EPISODES_PER_CHUNK`]; fewer in tests).
     episodes_per_chunk: u32,

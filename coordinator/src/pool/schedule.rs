@@ -380,9 +380,7 @@ impl<T: Transport> Pool<T> {
             return;
         }
         for idle in 0..self.links.len() {
-            if self.links[idle].in_flight() > 0
-                || !self.links[idle].has_room()
-                || self.stands_in_for(idle)
+            if self.links[idle].in_flight() > 0 || !self.has_room(idle) || self.stands_in_for(idle)
             {
                 continue;
             }
@@ -519,6 +517,12 @@ impl<T: Transport> Pool<T> {
         came
     }
 
+    /// Whether link `i` may take another chunk: its transport has room
+    /// for it, and it holds fewer than the step allows (`Pool::depth`).
+    pub(super) fn has_room(&self, i: usize) -> bool {
+        self.links[i].has_room() && self.links[i].in_flight() < self.depth
+    }
+
     /// Whether the coordinator flies, in place of link `i`, the chunks
     /// that would go to it: `i` is the worker on the coordinator's CPU, in
     /// a step of evaluation (`Pool::stands_in`), and another worker is
@@ -569,7 +573,7 @@ impl<T: Transport> Pool<T> {
         self.look_for_answers();
         let links = self.links.len();
         let Some(i) = (0..links).map(|k| (early.next + k) % links).find(|&i| {
-            self.links[i].has_room()
+            self.has_room(i)
                 && !self
                     .children
                     .beside_coordinator(ChildId::of(&self.links[i]))
@@ -612,7 +616,7 @@ impl<T: Transport> Pool<T> {
             pass += 1;
             sent = false;
             for i in 0..self.links.len() {
-                if !self.links[i].has_room() || self.stands_in_for(i) {
+                if !self.has_room(i) || self.stands_in_for(i) {
                     continue;
                 }
                 let Some(chunk) = todo.pop_front() else { break };

@@ -222,7 +222,7 @@ impl<T: Transport> Pool<T> {
             let idlest = others
                 .iter()
                 .copied()
-                .filter(|&i| self.links[i].has_room())
+                .filter(|&i| self.has_room(i))
                 .min_by_key(|&i| self.links[i].in_flight());
             match idlest {
                 Some(i) => {

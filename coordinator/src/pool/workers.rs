@@ -7,7 +7,7 @@
 
 use super::link::overdue;
 use super::spawn::{ChildId, Children, Placement};
-use super::{iceoryx, IpcPool, Pool, PoolOptions, Transport, WorkerLink};
+use super::{iceoryx, IpcPool, Pool, PoolOptions, Transport, WorkerLink, DEPTH};
 use crate::evaluator::EvalError;
 use lander_protocol::host::Pinned;
 use lander_protocol::wire::PROTOCOL_VERSION;
@@ -41,6 +41,7 @@ impl<T: Transport> Pool<T> {
             beside: placement.coordinator,
             cpus: allowed.len().max(1),
             stands_in: false,
+            depth: DEPTH,
             episodes_per_chunk: lander_protocol::wire::MOST_EPISODES_PER_CHUNK,
             children: Children::new(
                 opts.worker_exe.clone(),

@@ -7,7 +7,7 @@ use crate::config::RunConfig;
 use crate::evaluator::{Batch, Evaluator, InProcess};
 use crate::ga::{random_population, Genome};
 use crate::pool::backend::Pace;
-use crate::pool::Pool;
+use crate::pool::{Pool, DEPTH, SHARED_STEP_DEPTH};
 use crate::trial::offspring;
 use lander_model::stream::streams;
 use lander_model::{Evaluation, Pass, StreamKey};
@@ -82,6 +82,23 @@ fn batches_bred_as_handed_out_or_first_fly_as_in_process() {
         assert!(step(&mut pool) == in_process, "{pace:?}");
         // The step's breeding was timed, for the next step to go by.
         assert!(pool.pace.breeding > Duration::ZERO, "{pace:?}");
+    }
+}
+
+/// Where the coordinator flies a share of a single trial's step, a slow
+/// worker holds two chunks at most, so that the step ends on the small
+/// ones; in a step of several trials it holds four.
+#[test]
+fn a_worker_holds_two_chunks_of_one_trials_step_shared_here_and_four_of_more() {
+    for (trials, most) in [(1, SHARED_STEP_DEPTH), (TRIALS as usize, DEPTH)] {
+        let mut pool = super::fake::flying(1);
+        pool.opts.share = true;
+        pool.opts.chunks_per_worker = 4;
+        pool.links[0].looks_per_answer = 3;
+        let in_process = step_of(&mut InProcess::new(2).unwrap(), trials);
+        assert!(step_of(&mut pool, trials) == in_process, "{trials} trials");
+        assert_eq!(pool.links[0].most_held, most, "{trials} trials");
+        assert!(pool.flown_here() > 0, "{trials} trials: nothing flown here");
     }
 }
 

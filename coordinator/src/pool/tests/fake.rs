@@ -35,6 +35,8 @@ pub struct Recorder {
     pub looks_per_answer: usize,
     /// Looks at it so far.
     pub looks: usize,
+    /// The most chunks it ever held at once.
+    pub most_held: usize,
 }
 
 impl Recorder {
@@ -52,6 +54,7 @@ impl Recorder {
             sends_left: None,
             looks_per_answer: 0,
             looks: 0,
+            most_held: 0,
         }
     }
 
@@ -110,6 +113,7 @@ impl WorkerLink for Recorder {
             self.flown.insert(chunk, body);
         }
         self.chunks.push(chunk);
+        self.most_held = self.most_held.max(self.chunks.len());
         self.sent.push(chunk);
         Ok(())
     }
