@@ -190,12 +190,7 @@ proptest! {
         fitness in proptest::collection::vec(-10.0f64..1000.0, 1..40),
         elites in 0usize..6,
     ) {
-        let p = GaParams {
-            population: fitness.len(),
-            elites: elites.min(fitness.len()),
-            genome_length: 7,
-            ..GaParams::default()
-        };
+        let p = offspring_params(&fitness, elites);
         let population = random_population(&p, &mut rng(seed));
         let (mut r1, mut r2) = (rng(seed ^ 1), rng(seed ^ 1));
         prop_assert_eq!(
@@ -204,9 +199,7 @@ proptest! {
         );
         prop_assert_eq!(r1.random::<u64>(), r2.random::<u64>(), "the draws after it");
     }
-}
 
-proptest! {
     /// Bred into the memory of old genomes, of any length and any number,
     /// the generation is the one bred into fresh memory, draws and all.
     #[test]
@@ -216,12 +209,7 @@ proptest! {
         elites in 0usize..6,
         old in proptest::collection::vec(0usize..20, 0..50),
     ) {
-        let p = GaParams {
-            population: fitness.len(),
-            elites: elites.min(fitness.len()),
-            genome_length: 7,
-            ..GaParams::default()
-        };
+        let p = offspring_params(&fitness, elites);
         let population = random_population(&p, &mut rng(seed));
         let buffers: Vec<Genome> = old
             .iter()
@@ -232,6 +220,17 @@ proptest! {
             Offspring::new(&p, &population, &fitness, rng(seed ^ 1)).reusing(buffers);
         prop_assert_eq!(fresh.by_ref().collect::<Vec<_>>(), reused.by_ref().collect::<Vec<_>>());
         prop_assert_eq!(fresh.rng.random::<u64>(), reused.rng.random::<u64>(), "the draws after it");
+    }
+}
+
+/// The GA of the properties of [`Offspring`]: a population as large as
+/// `fitness`, at most `elites` elites, genomes of 7 genes.
+fn offspring_params(fitness: &[f64], elites: usize) -> GaParams {
+    GaParams {
+        population: fitness.len(),
+        elites: elites.min(fitness.len()),
+        genome_length: 7,
+        ..GaParams::default()
     }
 }
 
