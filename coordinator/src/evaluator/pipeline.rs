@@ -8,8 +8,8 @@
 //! next, so that the generator's state stays in one core's cache.
 //!
 //! The fliers claim genomes in runs that shrink as the generation runs out
-//! ([`claim_size`]): a claim and its count of done genomes are the only
-//! writes the threads share, and a genome's flight takes 2–3 µs, so one
+//! ([`claim_size`]): a claim and its count of done genomes each write a
+//! counter every flier writes, and a genome's flight takes 2–3 µs, so one
 //! claim a genome cost each thread a few percent of its time.
 //!
 //! **The crew stays awake between generations.** A trial's generations
@@ -73,7 +73,8 @@ struct Handover {
     flier: Fly,
     /// Genomes bred so far: slots below it are filled.
     ready: AtomicUsize,
-    /// The next genome to fly.
+    /// Genomes claimed so far; past the population once all are, as a
+    /// claim is clipped to it.
     claimed: AtomicUsize,
     /// Genomes taken and done with, flown or (breeding having ended early)
     /// found empty.

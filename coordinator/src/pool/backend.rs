@@ -333,11 +333,12 @@ impl<T: Transport> Pool<T> {
 
     /// How many chunks a worker may hold in a step of `batches` batches:
     /// [`SHARED_STEP_DEPTH`] where it is a single batch and the coordinator
-    /// flies a share (its own, or that of the worker beside it), else
-    /// [`DEPTH`].
+    /// flies a share (its own, or that of the worker beside it while
+    /// another flies the rest: `Pool::stands_in_for`), else [`DEPTH`].
     fn depth_for(&self, batches: usize) -> usize {
         let stands_in = self.opts.stand_in && self.opts.verify == 0.0;
-        let shares = self.opts.share || (stands_in && self.children.beside().is_some());
+        let shares = self.opts.share
+            || (stands_in && self.opts.spawn > 1 && self.children.beside().is_some());
         if batches == 1 && shares {
             SHARED_STEP_DEPTH
         } else {

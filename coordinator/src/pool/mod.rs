@@ -82,7 +82,8 @@ pub const DEPTH: usize = 4;
 /// into chunks of a few genomes, largest first, and the first go out while
 /// the rest are bred: four of them would hold the step's largest chunks
 /// at the worker to its end, where the coordinator, run dry, could take
-/// back only one of those and the worker would wait for it. Two keep the
+/// back only chunks that large, and the worker would wait for the last
+/// one taken. Two keep the
 /// worker busy for as long as the coordinator flies a chunk of its own,
 /// and the step ends on the small ones.
 pub const SHARED_STEP_DEPTH: usize = 2;
