@@ -203,28 +203,30 @@ impl<T: Transport> Evaluator for Pool<T> {
         &mut self,
         next: &mut dyn Iterator<Item = Batch<'a>>,
     ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
+        // As many batches as may come.
         let (least, most) = next.size_hint();
-        self.depth = self.depth_for(most.unwrap_or(least).max(1));
-        let evaluations = self.evaluate_step(next);
+        let coming = most.unwrap_or(least).max(1);
+        self.depth = self.depth_for(coming);
+        let evaluations = self.evaluate_step(next, coming);
         self.depth = DEPTH;
         evaluations
     }
 }
 
 impl<T: Transport> Pool<T> {
-    /// [`Pool::evaluate_each`]'s step, at the depth it set.
+    /// [`Pool::evaluate_each`]'s step of up to `coming` batches, at the
+    /// depth it set.
     fn evaluate_step<'a>(
         &mut self,
         next: &mut dyn Iterator<Item = Batch<'a>>,
+        coming: usize,
     ) -> Result<Vec<Vec<Evaluation>>, EvalError> {
         // Before any chunk goes out early, as before the hand-out.
         self.await_first_workers()?;
         // A coordinator that flies a share counts as one more worker.
         let workers = self.links.len().max(self.opts.spawn).max(1) + usize::from(self.opts.share);
         // About `chunks_per_worker` chunks per worker in all, however many
-        // batches share them: as many as may come.
-        let (least, most) = next.size_hint();
-        let coming = most.unwrap_or(least).max(1);
+        // batches share them.
         let per_batch = (workers * self.opts.chunks_per_worker).div_ceil(coming);
         // Flying counts the coordinator's own chunks too: in place of the
         // worker on its CPU it flies that worker's share.
@@ -287,12 +289,7 @@ impl<T: Transport> Pool<T> {
             differs: &|i, truth, answer| verify::differs(&chunks[i], truth, answer),
             shares: true,
         };
-        // The coordinator flies the share of the worker on its CPU itself,
-        // sparing the hand-over and the wake-ups: that worker could start
-        // only once the coordinator had bred the step and slept. With
-        // --verify every worker keeps its share, so that another can check
-        // its answers.
-        self.stands_in = self.opts.stand_in && self.opts.verify == 0.0;
+        self.stands_in = self.may_stand_in();
         let results = self.run_checked_after(
             &chunks,
             &early.sent,
@@ -336,14 +333,22 @@ impl<T: Transport> Pool<T> {
     /// flies a share (its own, or that of the worker beside it while
     /// another flies the rest: `Pool::stands_in_for`), else [`DEPTH`].
     fn depth_for(&self, batches: usize) -> usize {
-        let stands_in = self.opts.stand_in && self.opts.verify == 0.0;
         let shares = self.opts.share
-            || (stands_in && self.opts.spawn > 1 && self.children.beside().is_some());
+            || (self.may_stand_in() && self.opts.spawn > 1 && self.children.beside().is_some());
         if batches == 1 && shares {
             SHARED_STEP_DEPTH
         } else {
             DEPTH
         }
+    }
+
+    /// Whether the coordinator flies the share of the worker on its CPU
+    /// itself in an evaluation step (`Pool::stands_in`), sparing the
+    /// hand-over and the wake-ups: that worker could start only once the
+    /// coordinator had bred the step and slept. With --verify every worker
+    /// keeps its share, so that another can check its answers.
+    fn may_stand_in(&self) -> bool {
+        self.opts.stand_in && self.opts.verify == 0.0
     }
 
     /// How many of `workers` fly at once: workers spawned here no more
