@@ -4,12 +4,12 @@
 use crate::ga::{Genome, Offspring};
 use crate::stop::Stop;
 use lander_model::learn::run_training;
+use lander_model::stream::StreamRng;
 use lander_model::TrainJob;
 use lander_model::TrainResult;
 use lander_model::{evaluate, Evaluation};
 use lander_model::{Env, GuideParams, Pass, StreamKey};
 use lander_protocol::iox::IpcError;
-use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Duration;
@@ -35,7 +35,7 @@ pub struct Batch<'a> {
     /// Rewritten in place by the guided pass; empty while `offspring` is
     /// still to breed it.
     genomes: &'a mut Vec<Genome>,
-    offspring: Option<Offspring<'a, ChaCha8Rng>>,
+    offspring: Option<Offspring<'a, StreamRng>>,
 }
 
 impl<'a> Batch<'a> {
@@ -61,7 +61,7 @@ impl<'a> Batch<'a> {
 
     /// The same batch, its genomes bred by `offspring` (where `Some`) into
     /// the empty `genomes`.
-    pub fn breeding(mut self, offspring: Option<Offspring<'a, ChaCha8Rng>>) -> Batch<'a> {
+    pub fn breeding(mut self, offspring: Option<Offspring<'a, StreamRng>>) -> Batch<'a> {
         assert!(
             offspring.is_none() || self.genomes.is_empty(),
             "a batch bred into genomes it already has"

@@ -5,10 +5,9 @@
 use crate::config::RunConfig;
 use crate::evaluator::{Batch, EvalError, Evaluator};
 use crate::ga::{random_population, GaParams, Genome, Offspring};
-use lander_model::stream::streams;
+use lander_model::stream::{streams, StreamRng};
 use lander_model::{Env, Pass, StreamKey};
 use lander_model::{Evaluation, Outcome};
-use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 /// One generation's record, a line of `generations.jsonl`.
@@ -345,7 +344,7 @@ pub(crate) fn offspring<'a>(
     parents: &'a [Genome],
     fitness: &[f64],
     key: StreamKey,
-) -> Offspring<'a, ChaCha8Rng> {
+) -> Offspring<'a, StreamRng> {
     Offspring::new(ga, parents, fitness, key.rng(streams::OPERATORS))
 }
 

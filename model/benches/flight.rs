@@ -1,13 +1,15 @@
 //! Simulated ticks per second of `fly` against the straightforward
 //! reference, the cost of one guided generation of 100 genomes (against the
-//! same with each gene's branches flown one by one), and Q(λ) decisions
-//! per second.
+//! same with each gene's branches flown one by one), Q(λ) decisions per
+//! second, and a generation's breeding draws from a keyed stream (against
+//! the same from rand_chacha's generator).
 //!
 //! `cargo bench --workspace --bench flight`
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use lander_model::evaluate::evaluate_guided_one_by_one;
 use lander_model::learn::train;
+use lander_model::stream::streams;
 use lander_model::{evaluate, fly, reference};
 use lander_model::{Action, Env, Gene, GuideParams, LearnParams, Pass, Scoring, StreamKey, World};
 use rand::{Rng, SeedableRng};
@@ -133,5 +135,43 @@ fn qlearning(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, flights, guided_generation, qlearning);
+/// The draws of one generation's breeding, about 12,000 64-bit numbers
+/// (two a gene for mutation, most of them), as f64s, from the operators'
+/// stream: lander's `StreamRng` against rand_chacha's `ChaCha8Rng` over the
+/// same words.
+fn draws(c: &mut Criterion) {
+    const DRAWS: usize = 12_000;
+    let key = StreamKey::new(1, 16, 0, 7);
+    let oracle = || {
+        let mut seed = [0u8; 32];
+        for (chunk, word) in seed.chunks_exact_mut(8).zip([1u64, 16, 0, 7]) {
+            chunk.copy_from_slice(&word.to_le_bytes());
+        }
+        let mut rng = ChaCha8Rng::from_seed(seed);
+        rng.set_stream(streams::OPERATORS);
+        rng
+    };
+    let (mut ours, mut theirs) = (key.rng(streams::OPERATORS), oracle());
+    assert!(
+        (0..DRAWS).all(|_| ours.random::<f64>() == theirs.random::<f64>()),
+        "the two generators' draws differ"
+    );
+    let mut group = c.benchmark_group("draws");
+    group.throughput(Throughput::Elements(DRAWS as u64));
+    group.bench_function("stream_rng", |b| {
+        b.iter(|| {
+            let mut rng = key.rng(streams::OPERATORS);
+            (0..DRAWS).map(|_| rng.random::<f64>()).sum::<f64>()
+        })
+    });
+    group.bench_function("rand_chacha", |b| {
+        b.iter(|| {
+            let mut rng = oracle();
+            (0..DRAWS).map(|_| rng.random::<f64>()).sum::<f64>()
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, flights, guided_generation, qlearning, draws);
 criterion_main!(benches);

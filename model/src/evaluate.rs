@@ -2,9 +2,8 @@
 
 use crate::guide::{guide_in_place, guide_in_place_one_by_one};
 use crate::sim::{fly, Flight, Physics};
-use crate::stream::streams;
+use crate::stream::{streams, StreamRng};
 use crate::{Env, Evaluation, Gene, GuideParams, Pass, StreamKey};
-use rand_chacha::ChaCha8Rng;
 
 /// Evaluates `genes` in place. Under `Guided` the genes are first improved
 /// by the evolve pass, whose draws come from the stream of
@@ -41,7 +40,7 @@ pub fn evaluate_guided_one_by_one(
     guided(guide_in_place_one_by_one, env, guide, key, index, genes)
 }
 
-type GuidePass = fn(&Env, &GuideParams, &mut [Gene], &mut ChaCha8Rng) -> (Flight, u64);
+type GuidePass = fn(&Env, &GuideParams, &mut [Gene], &mut StreamRng) -> (Flight, u64);
 
 #[inline(always)]
 fn guided(

@@ -10,10 +10,9 @@
 use crate::qlearn::{QLambda, QParams, Task};
 use crate::score::{is_safe, reinforcement};
 use crate::sim::{Flight, Physics};
-use crate::stream::streams;
+use crate::stream::{streams, StreamRng};
 use crate::tiles::TileCoder;
 use crate::{Env, EpisodeRecord, GuideParams, LearnParams, StreamKey, TrainResult, Training};
-use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 use std::ops::ControlFlow;
@@ -95,7 +94,7 @@ impl Task for LanderTask {
 pub struct LearnRun {
     task: LanderTask,
     agent: QLambda,
-    rng: ChaCha8Rng,
+    rng: StreamRng,
     learn: LearnParams,
     max_steps: u32,
     /// Episodes flown so far.
