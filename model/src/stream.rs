@@ -5,9 +5,9 @@
 //! says what the draws are for. Results therefore never depend on which
 //! process or thread made them, nor on the order in which work was done.
 //!
-//! The generator is [`StreamRng`]: the draws of rand_chacha's `ChaCha8Rng`
-//! (SPEC §1), made 16 blocks at a time by the chacha20 crate's keystream,
-//! in AVX-512 lanes where the CPU has them.
+//! The generator is [`StreamRng`]: the draws of rand_chacha's `ChaCha8Rng`,
+//! made 16 blocks at a time by the chacha20 crate's keystream, in AVX-512
+//! lanes where the CPU has them.
 
 use chacha20::cipher::{Block, KeyIvInit, StreamCipherCore};
 use chacha20::variants::Ietf;
@@ -79,7 +79,7 @@ impl StreamKey {
 }
 
 /// Blocks of keystream made at a time: as many as chacha20's AVX-512
-/// backend makes in one pass. A generation's breeding draws about 100 KiB.
+/// backend makes in one pass. A generation's breeding draws about 95 KB.
 const BLOCKS: usize = 16;
 /// 32-bit words in a ChaCha block.
 const BLOCK_WORDS: usize = 16;
@@ -98,7 +98,7 @@ pub struct StreamRng(BlockRng<Keystream>);
 impl StreamRng {
     /// The generator of `stream` under the 32 bytes `key`, at its start.
     pub fn new(key: [u8; 32], stream: u64) -> StreamRng {
-        StreamRng(BlockRng::new(Keystream::at(key, stream, 0)))
+        StreamRng(BlockRng::new(Keystream::new(key, stream)))
     }
 
     /// Where the next draw starts, in 32-bit words from the stream's start
@@ -154,14 +154,14 @@ struct Keystream {
 }
 
 impl Keystream {
-    fn at(key: [u8; 32], stream: u64, block: u64) -> Keystream {
-        let high = (block >> 32) as u32;
+    /// The keystream of `stream` under `key`, from its first block.
+    fn new(key: [u8; 32], stream: u64) -> Keystream {
         Keystream {
             key,
             stream,
-            block,
-            core: core(&key, stream, high),
-            high,
+            block: 0,
+            core: core(&key, stream, 0),
+            high: 0,
             blocks: Default::default(),
         }
     }
@@ -177,7 +177,7 @@ fn core(key: &[u8; 32], stream: u64, high: u32) -> ChaChaCore<R8, Ietf> {
 }
 
 /// A refill's words, as [`BlockRng`] holds them.
-pub struct Words([u32; WORDS]);
+struct Words([u32; WORDS]);
 
 impl Default for Words {
     fn default() -> Words {
