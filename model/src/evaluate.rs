@@ -2,7 +2,7 @@
 
 use crate::guide::{guide_in_place, guide_in_place_one_by_one};
 use crate::sim::{fly, Flight, Physics};
-use crate::stream::{streams, StreamRng};
+use crate::stream::{streams, ShortStreamRng};
 use crate::{Env, Evaluation, Gene, GuideParams, Pass, StreamKey};
 
 /// Evaluates `genes` in place. Under `Guided` the genes are first improved
@@ -40,7 +40,7 @@ pub fn evaluate_guided_one_by_one(
     guided(guide_in_place_one_by_one, env, guide, key, index, genes)
 }
 
-type GuidePass = fn(&Env, &GuideParams, &mut [Gene], &mut StreamRng) -> (Flight, u64);
+type GuidePass = fn(&Env, &GuideParams, &mut [Gene], &mut ShortStreamRng) -> (Flight, u64);
 
 #[inline(always)]
 fn guided(
@@ -51,7 +51,7 @@ fn guided(
     index: u64,
     genes: &mut [Gene],
 ) -> Evaluation {
-    let mut rng = key.rng(streams::guide(index));
+    let mut rng = key.short_rng(streams::guide(index));
     let (mut flight, looked_ahead) = pass(env, guide, genes, &mut rng);
     let n = flight.ticks;
     flight.drift_to_end(&Physics::new(env));

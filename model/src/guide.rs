@@ -187,7 +187,7 @@ mod tests {
             let key = StreamKey::new(seed, 0, 0, 1);
             let ev = evaluate(&e, Pass::Guide, &GuideParams::default(), key, index, &mut genes);
             prop_assert_eq!(ev.outcome, fly(&e, &genes));
-            let again = guide(&e, &GuideParams::default(), &genome, &mut key.rng(crate::stream::streams::guide(index)));
+            let again = guide(&e, &GuideParams::default(), &genome, &mut key.short_rng(crate::stream::streams::guide(index)));
             prop_assert_eq!(again, genes);
         }
     }

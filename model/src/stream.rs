@@ -67,6 +67,13 @@ impl StreamKey {
         StreamRng::new(self.bytes(), stream)
     }
 
+    /// The generator for `stream` under this key, for a stream drawn a few
+    /// dozen times, such as a genome's guided pass: the same draws as
+    /// [`StreamKey::rng`]'s, made 4 blocks at a time.
+    pub fn short_rng(&self, stream: u64) -> ShortStreamRng {
+        StreamRng::new(self.bytes(), stream)
+    }
+
     /// The key as ChaCha8's 32 bytes: the four words, little-endian.
     fn bytes(&self) -> [u8; 32] {
         let mut key = [0u8; 32];
@@ -78,12 +85,18 @@ impl StreamKey {
     }
 }
 
-/// Blocks of keystream made at a time: as many as chacha20's AVX-512
-/// backend makes in one pass. A generation's breeding draws about 95 KB.
+/// Blocks of keystream a [`StreamRng`] makes at a time: as many as
+/// chacha20's AVX-512 backend makes in one pass. A generation's breeding
+/// draws about 95 KB.
 const BLOCKS: usize = 16;
 /// 32-bit words in a ChaCha block.
 const BLOCK_WORDS: usize = 16;
-const WORDS: usize = BLOCKS * BLOCK_WORDS;
+
+/// A [`StreamRng`] that makes its keystream 4 blocks at a time, as
+/// rand_chacha does, for a stream drawn a few dozen times: a genome's
+/// guided pass draws a few dozen words from its own, and making 16 blocks
+/// for them would cost it more than they save (about 80 ns a genome).
+pub type ShortStreamRng = StreamRng<{ 4 * BLOCK_WORDS }>;
 
 /// The generator of one keyed stream: ChaCha8 keyed with 32 bytes, its
 /// 64-bit stream number as the nonce, its keystream's 32-bit words drawn
@@ -93,18 +106,28 @@ const WORDS: usize = BLOCKS * BLOCK_WORDS;
 /// fast, where the CPU has AVX-512 (`.cargo/config.toml` builds chacha20
 /// with that backend; without it, or on a CPU without AVX-512, it uses
 /// AVX2 and is still faster).
-pub struct StreamRng(BlockRng<Keystream>);
+///
+/// `WORDS`, the words a refill makes, is a whole number of blocks, at
+/// most [`BLOCKS`] of them.
+pub struct StreamRng<const WORDS: usize = { BLOCKS * BLOCK_WORDS }>(BlockRng<Keystream<WORDS>>);
 
-impl StreamRng {
+impl<const WORDS: usize> StreamRng<WORDS> {
+    const REFILL: () = assert!(
+        WORDS > 0 && WORDS.is_multiple_of(BLOCK_WORDS) && WORDS <= BLOCKS * BLOCK_WORDS,
+        "a refill is 1 to 16 whole blocks"
+    );
+
     /// The generator of `stream` under the 32 bytes `key`, at its start.
-    pub fn new(key: [u8; 32], stream: u64) -> StreamRng {
+    pub fn new(key: [u8; 32], stream: u64) -> StreamRng<WORDS> {
+        let () = Self::REFILL;
         StreamRng(BlockRng::new(Keystream::new(key, stream)))
     }
 
     /// Where the next draw starts, in 32-bit words from the stream's start
     /// (rand_chacha's `get_word_pos`): what a checkpoint keeps.
     pub fn get_word_pos(&self) -> u128 {
-        let buffered_from = self.0.core.block.wrapping_sub(BLOCKS as u64);
+        let refilled = (WORDS / BLOCK_WORDS) as u64;
+        let buffered_from = self.0.core.block.wrapping_sub(refilled);
         let index = self.0.index() as u64;
         let block = buffered_from.wrapping_add(index / BLOCK_WORDS as u64);
         u128::from(block) * BLOCK_WORDS as u128 + u128::from(index % BLOCK_WORDS as u64)
@@ -119,7 +142,7 @@ impl StreamRng {
     }
 }
 
-impl RngCore for StreamRng {
+impl<const WORDS: usize> RngCore for StreamRng<WORDS> {
     #[inline]
     fn next_u32(&mut self) -> u32 {
         self.0.next_u32()
@@ -136,13 +159,13 @@ impl RngCore for StreamRng {
     }
 }
 
-/// The keystream of one stream, [`BLOCKS`] blocks at a time, from block
+/// The keystream of one stream, `WORDS` words at a time, from block
 /// `block`. chacha20's ChaCha8 is the IETF one: a 32-bit block counter and
 /// a 96-bit nonce, where rand_chacha's counts blocks in 64 bits beside a
 /// 64-bit stream. The nonce's first word stands in for the counter's high
 /// word, so the two keystreams are the same; the core is keyed again each
 /// time the low word wraps, after 2^32 blocks.
-struct Keystream {
+struct Keystream<const WORDS: usize> {
     key: [u8; 32],
     stream: u64,
     /// The block the next refill starts at.
@@ -153,9 +176,9 @@ struct Keystream {
     blocks: [Block<ChaChaCore<R8, Ietf>>; BLOCKS],
 }
 
-impl Keystream {
+impl<const WORDS: usize> Keystream<WORDS> {
     /// The keystream of `stream` under `key`, from its first block.
-    fn new(key: [u8; 32], stream: u64) -> Keystream {
+    fn new(key: [u8; 32], stream: u64) -> Keystream<WORDS> {
         Keystream {
             key,
             stream,
@@ -177,36 +200,37 @@ fn core(key: &[u8; 32], stream: u64, high: u32) -> ChaChaCore<R8, Ietf> {
 }
 
 /// A refill's words, as [`BlockRng`] holds them.
-struct Words([u32; WORDS]);
+struct Words<const WORDS: usize>([u32; WORDS]);
 
-impl Default for Words {
-    fn default() -> Words {
+impl<const WORDS: usize> Default for Words<WORDS> {
+    fn default() -> Words<WORDS> {
         Words([0; WORDS])
     }
 }
 
-impl AsRef<[u32]> for Words {
+impl<const WORDS: usize> AsRef<[u32]> for Words<WORDS> {
     fn as_ref(&self) -> &[u32] {
         &self.0
     }
 }
 
-impl AsMut<[u32]> for Words {
+impl<const WORDS: usize> AsMut<[u32]> for Words<WORDS> {
     fn as_mut(&mut self) -> &mut [u32] {
         &mut self.0
     }
 }
 
-impl BlockRngCore for Keystream {
+impl<const WORDS: usize> BlockRngCore for Keystream<WORDS> {
     type Item = u32;
-    type Results = Words;
+    type Results = Words<WORDS>;
 
     // Kept out of the draws' inlined fast path, as rand_chacha keeps its own:
     // inlined, it makes the draw too large to inline where it is made.
     #[inline(never)]
-    fn generate(&mut self, results: &mut Words) {
+    fn generate(&mut self, results: &mut Words<WORDS>) {
+        let wanted = WORDS / BLOCK_WORDS;
         let mut made = 0;
-        while made < BLOCKS {
+        while made < wanted {
             let block = self.block.wrapping_add(made as u64);
             let high = (block >> 32) as u32;
             if high != self.high {
@@ -216,12 +240,12 @@ impl BlockRngCore for Keystream {
             self.core.set_block_pos(block as u32);
             // Up to where the counter's low word wraps.
             let to_wrap = (1u64 << 32) - u64::from(block as u32);
-            let n = (BLOCKS - made).min(usize::try_from(to_wrap).unwrap_or(BLOCKS));
+            let n = (wanted - made).min(usize::try_from(to_wrap).unwrap_or(wanted));
             self.core
                 .write_keystream_blocks(&mut self.blocks[made..made + n]);
             made += n;
         }
-        self.block = self.block.wrapping_add(BLOCKS as u64);
+        self.block = self.block.wrapping_add(wanted as u64);
         for (block, words) in self
             .blocks
             .iter()
@@ -276,44 +300,62 @@ mod tests {
         prop::collection::vec(draw, 1..400)
     }
 
+    /// Does `draws` to a `StreamRng` of `WORDS`-word refills and to
+    /// rand_chacha's generator alike, checking that they agree.
+    fn agree<const WORDS: usize>(
+        key: [u8; 32],
+        stream: u64,
+        draws: &[Draw],
+    ) -> Result<(), proptest::test_runner::TestCaseError> {
+        let (mut ours, mut theirs) = (StreamRng::<WORDS>::new(key, stream), oracle(key, stream));
+        for draw in draws {
+            match *draw {
+                Draw::U32 => prop_assert_eq!(ours.next_u32(), theirs.next_u32()),
+                Draw::U64 => prop_assert_eq!(ours.next_u64(), theirs.next_u64()),
+                Draw::Bytes(n) => {
+                    let (mut a, mut b) = (vec![0u8; n], vec![0u8; n]);
+                    ours.fill_bytes(&mut a);
+                    theirs.fill_bytes(&mut b);
+                    prop_assert_eq!(a, b);
+                }
+                Draw::Seek(word) => {
+                    ours.set_word_pos(word);
+                    theirs.set_word_pos(word);
+                }
+            }
+            prop_assert_eq!(ours.get_word_pos(), theirs.get_word_pos());
+        }
+        Ok(())
+    }
+
     proptest! {
         /// Any mix of draws, byte fills and seeks gives what rand_chacha's
-        /// `ChaCha8Rng` gives, at the same word positions.
+        /// `ChaCha8Rng` gives, at the same word positions, with refills of
+        /// 16 blocks ([`StreamRng`]), 4 ([`ShortStreamRng`]) or 1.
         #[test]
         fn draws_are_rand_chachas(key in any::<[u8; 32]>(), stream in any::<u64>(), draws in draws()) {
-            let (mut ours, mut theirs) = (StreamRng::new(key, stream), oracle(key, stream));
-            for draw in draws {
-                match draw {
-                    Draw::U32 => prop_assert_eq!(ours.next_u32(), theirs.next_u32()),
-                    Draw::U64 => prop_assert_eq!(ours.next_u64(), theirs.next_u64()),
-                    Draw::Bytes(n) => {
-                        let (mut a, mut b) = (vec![0u8; n], vec![0u8; n]);
-                        ours.fill_bytes(&mut a);
-                        theirs.fill_bytes(&mut b);
-                        prop_assert_eq!(a, b);
-                    }
-                    Draw::Seek(word) => {
-                        ours.set_word_pos(word);
-                        theirs.set_word_pos(word);
-                    }
-                }
-                prop_assert_eq!(ours.get_word_pos(), theirs.get_word_pos());
-            }
+            agree::<{ BLOCKS * BLOCK_WORDS }>(key, stream, &draws)?;
+            agree::<{ 4 * BLOCK_WORDS }>(key, stream, &draws)?;
+            agree::<BLOCK_WORDS>(key, stream, &draws)?;
         }
     }
 
     #[test]
     fn a_streams_keystream_crosses_the_counters_low_word_as_rand_chachas_does() {
         let key = StreamKey::new(1, 16, 0, 3).bytes();
-        let (mut ours, mut theirs) = (StreamRng::new(key, 9), oracle(key, 9));
         // Twenty words before block 2^32, which a refill straddles.
         let word = (1u128 << 36) - 20;
-        ours.set_word_pos(word);
+        let mut theirs = oracle(key, 9);
         theirs.set_word_pos(word);
-        let a: Vec<u32> = (0..600).map(|_| ours.next_u32()).collect();
-        let b: Vec<u32> = (0..600).map(|_| theirs.next_u32()).collect();
-        assert_eq!(a, b);
-        assert_eq!(ours.get_word_pos(), word + 600);
+        let want: Vec<u32> = (0..600).map(|_| theirs.next_u32()).collect();
+        let mut long = StreamKey::new(1, 16, 0, 3).rng(9);
+        long.set_word_pos(word);
+        let mut short = StreamKey::new(1, 16, 0, 3).short_rng(9);
+        short.set_word_pos(word);
+        assert_eq!((0..600).map(|_| long.next_u32()).collect::<Vec<_>>(), want);
+        assert_eq!((0..600).map(|_| short.next_u32()).collect::<Vec<_>>(), want);
+        assert_eq!(long.get_word_pos(), word + 600);
+        assert_eq!(short.get_word_pos(), word + 600);
     }
 
     #[test]

@@ -231,7 +231,7 @@ pub fn guide(args: GuideArgs) -> anyhow::Result<()> {
         cfg.validate().context("--epsilon")?;
     }
     let key = StreamKey::new(args.seed, args.trial, args.restart, args.generation);
-    let mut rng = key.rng(streams::guide(args.index));
+    let mut rng = key.short_rng(streams::guide(args.index));
     let guided = guide_pass(&env, &cfg.guided, &genes, &mut rng);
     outln!(
         "{}",
