@@ -143,11 +143,7 @@ fn draws(c: &mut Criterion) {
     const DRAWS: usize = 12_000;
     let key = StreamKey::new(1, 16, 0, 7);
     let oracle = || {
-        let mut seed = [0u8; 32];
-        for (chunk, word) in seed.chunks_exact_mut(8).zip([1u64, 16, 0, 7]) {
-            chunk.copy_from_slice(&word.to_le_bytes());
-        }
-        let mut rng = ChaCha8Rng::from_seed(seed);
+        let mut rng = ChaCha8Rng::from_seed(key.bytes());
         rng.set_stream(streams::OPERATORS);
         rng
     };

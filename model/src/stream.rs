@@ -74,8 +74,9 @@ impl StreamKey {
         StreamRng::new(self.bytes(), stream)
     }
 
-    /// The key as ChaCha8's 32 bytes: the four words, little-endian.
-    fn bytes(&self) -> [u8; 32] {
+    /// The key as ChaCha8's 32 bytes: the four words, little-endian (what
+    /// rand_chacha's `ChaCha8Rng::from_seed` takes for the same stream).
+    pub fn bytes(&self) -> [u8; 32] {
         let mut key = [0u8; 32];
         let words = [self.seed, self.trial, self.restart, self.generation];
         for (chunk, word) in key.chunks_exact_mut(8).zip(words) {
