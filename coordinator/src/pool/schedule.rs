@@ -526,12 +526,15 @@ impl<T: Transport> Pool<T> {
     /// Whether the coordinator flies, in place of link `i`, the chunks
     /// that would go to it: `i` is the worker on the coordinator's CPU, in
     /// a step of evaluation (`Pool::stands_in`), and another worker is
-    /// there to fly the rest. The coordinator flies
-    /// between answers as with a share of its own, with no chunk to hand
-    /// over and no worker to wake on that CPU; the worker sleeps.
+    /// there to fly the rest, joined or still starting. The coordinator
+    /// flies between answers as with a share of its own, with no chunk to
+    /// hand over and no worker to wake on that CPU; the worker sleeps. A
+    /// chunk sent to that worker while the other starts would wait for
+    /// the CPU the coordinator flies on, and its step's end with it, for
+    /// as long as a scheduler's time slice: milliseconds.
     fn stands_in_for(&self, i: usize) -> bool {
         self.stands_in
-            && self.links.len() > 1
+            && (self.links.len() > 1 || self.children.any_apart())
             && self
                 .children
                 .beside_coordinator(ChildId::of(&self.links[i]))

@@ -169,6 +169,13 @@ impl Children {
             .map(Spawned::child_id)
     }
 
+    /// Whether a live worker started here runs elsewhere than on the CPU
+    /// the coordinator's thread shares ([`Children::beside`]).
+    pub fn any_apart(&self) -> bool {
+        let beside = self.beside();
+        self.procs.iter().any(|p| Some(p.child_id()) != beside)
+    }
+
     /// Starts one more worker, on the next free CPU if any.
     pub fn spawn(&mut self) -> Result<ChildId, EvalError> {
         let cpu = self.free_cpus.pop();

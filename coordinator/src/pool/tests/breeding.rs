@@ -255,3 +255,26 @@ fn while_the_worker_on_its_cpu_starts_the_coordinator_flies_in_its_place() {
         assert_eq!(pool.children.stop_all(&[]), 0);
     }
 }
+
+#[test]
+fn while_only_the_worker_on_its_cpu_has_joined_the_coordinator_still_flies_in_its_place() {
+    // The others are spawned and still starting: a chunk sent to the one
+    // beside the coordinator would wait for the coordinator's own CPU.
+    let others = lander_protocol::host::allowed_cpus().len() - 1;
+    if others == 0 {
+        // One CPU: that worker is the only one, and flies everything
+        // (`the_coordinator_flies_in_place_of_the_worker_on_its_cpu`).
+        return;
+    }
+    let in_process = step(&mut InProcess::new(2).unwrap());
+    let dir = tempfile::tempdir().unwrap();
+    let mut pool = on_every_cpu(dir.path());
+    pool.links.drain(..others);
+    assert!(step(&mut pool) == in_process);
+    assert!(
+        pool.links[0].sent.is_empty(),
+        "the coordinator's neighbour was sent chunks"
+    );
+    assert!(pool.flown_here() > 0, "the coordinator flew nothing");
+    assert_eq!(pool.children.stop_all(&[]), 0);
+}
