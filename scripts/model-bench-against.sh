@@ -24,7 +24,7 @@ root, work = sys.argv[1], sys.argv[2]
 top = open(f"{root}/Cargo.toml").read()
 package = top[top.index("[workspace.package]"):top.index("[workspace.dependencies]")]
 deps = [l for l in top[top.index("[workspace.dependencies]"):].split("\n")[1:]
-        if re.match(r"^(rand|rand_chacha|chacha20|serde|thiserror|proptest|criterion)\s*=", l)]
+        if re.match(r"^(rand|rand_chacha|chacha20|bytemuck|serde|thiserror|proptest|criterion)\s*=", l)]
 release = top[top.index("\n[profile.release]\n") + 1:].split("\n\n")[0]
 for side in ("old", "new"):
     path = f"{work}/{side}/Cargo.toml"

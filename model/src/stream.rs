@@ -174,7 +174,6 @@ struct Keystream<const WORDS: usize> {
     core: ChaChaCore<R8, Ietf>,
     /// The high word of the counter `core` was keyed for.
     high: u32,
-    blocks: [Block<ChaChaCore<R8, Ietf>>; BLOCKS],
 }
 
 impl<const WORDS: usize> Keystream<WORDS> {
@@ -186,7 +185,6 @@ impl<const WORDS: usize> Keystream<WORDS> {
             block: 0,
             core: core(&key, stream, 0),
             high: 0,
-            blocks: Default::default(),
         }
     }
 }
@@ -230,6 +228,11 @@ impl<const WORDS: usize> BlockRngCore for Keystream<WORDS> {
     #[inline(never)]
     fn generate(&mut self, results: &mut Words<WORDS>) {
         let wanted = WORDS / BLOCK_WORDS;
+        // The keystream written straight into the words, as their bytes:
+        // no buffer of blocks to zero when a stream is made, nor to copy
+        // from at each refill.
+        let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut results.0[..]);
+        let (blocks, _) = Block::<ChaChaCore<R8, Ietf>>::slice_as_chunks_mut(bytes);
         let mut made = 0;
         while made < wanted {
             let block = self.block.wrapping_add(made as u64);
@@ -243,18 +246,13 @@ impl<const WORDS: usize> BlockRngCore for Keystream<WORDS> {
             let to_wrap = (1u64 << 32) - u64::from(block as u32);
             let n = (wanted - made).min(usize::try_from(to_wrap).unwrap_or(wanted));
             self.core
-                .write_keystream_blocks(&mut self.blocks[made..made + n]);
+                .write_keystream_blocks(&mut blocks[made..made + n]);
             made += n;
         }
         self.block = self.block.wrapping_add(wanted as u64);
-        for (block, words) in self
-            .blocks
-            .iter()
-            .zip(results.0.chunks_exact_mut(BLOCK_WORDS))
-        {
-            for (bytes, word) in block.chunks_exact(4).zip(words) {
-                *word = u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
-            }
+        // The keystream's words are little-endian: nothing to do on x86.
+        for word in &mut results.0 {
+            *word = u32::from_le(*word);
         }
     }
 }
