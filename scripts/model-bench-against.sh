@@ -23,8 +23,15 @@ import re, sys
 root, work = sys.argv[1], sys.argv[2]
 top = open(f"{root}/Cargo.toml").read()
 package = top[top.index("[workspace.package]"):top.index("[workspace.dependencies]")]
+# The workspace dependencies either side's model names, from its own
+# Cargo.toml (`name.workspace = true`, or `{ workspace = true, ... }`).
+used = set()
+for side in ("old", "new"):
+    used |= set(re.findall(r"^([\w-]+)(?:\.workspace\s*=\s*true|\s*=\s*\{\s*workspace\s*=\s*true)",
+                           open(f"{work}/{side}/Cargo.toml").read(), re.M))
+used.discard("iceoryx2")
 deps = [l for l in top[top.index("[workspace.dependencies]"):].split("\n")[1:]
-        if re.match(r"^(rand|rand_chacha|chacha20|bytemuck|serde|thiserror|proptest|criterion)\s*=", l)]
+        if (m := re.match(r"^([\w-]+)\s*=", l)) and m.group(1) in used]
 release = top[top.index("\n[profile.release]\n") + 1:].split("\n\n")[0]
 for side in ("old", "new"):
     path = f"{work}/{side}/Cargo.toml"
