@@ -4,7 +4,9 @@
 //! from anything, so [`decode_job`] and [`decode_result`] reject every
 //! malformed frame with a reason and never panic.
 
-use crate::wire::{JobHeader, ResultHeader, WireGene, PROTOCOL_VERSION};
+use crate::wire::{
+    decode_all, encode, JobHeader, ResultHeader, Undecodable, WireGene, PROTOCOL_VERSION,
+};
 use serde::{Deserialize, Serialize};
 
 /// The first bytes of every frame.
@@ -61,19 +63,12 @@ pub enum FrameError {
     OddGenes(usize),
 }
 
-fn encode(value: &impl Serialize) -> Vec<u8> {
-    // Encoding plain structs into a Vec cannot fail.
-    postcard::to_allocvec(value).unwrap_or_default()
-}
-
-/// Decodes all of `bytes` as one `T`, refusing leftovers.
-fn decode_all<'a, T: Deserialize<'a>>(bytes: &'a [u8]) -> Result<T, FrameError> {
-    let (value, rest) =
-        postcard::take_from_bytes(bytes).map_err(|e| FrameError::Malformed(e.to_string()))?;
-    if rest.is_empty() {
-        Ok(value)
-    } else {
-        Err(FrameError::Trailing(rest.len()))
+impl From<Undecodable> for FrameError {
+    fn from(e: Undecodable) -> FrameError {
+        match e {
+            Undecodable::Malformed(why) => FrameError::Malformed(why),
+            Undecodable::Trailing(n) => FrameError::Trailing(n),
+        }
     }
 }
 

@@ -245,6 +245,18 @@ pub enum WireError {
     Index { first: u64, genomes: u32 },
     #[error("training result is not a possible leg to episode {0}")]
     ImplausibleTraining(u32),
+    #[error("genome_length is 0: a genome has at least one gene")]
+    NoGenes,
+    #[error("{genomes} genomes of {length} genes: a chunk carries {most} at the most")]
+    TooManyGenomes {
+        genomes: u32,
+        length: u32,
+        most: usize,
+    },
+    #[error("a training job's leg of {episodes} episodes: a leg flies {most} at the most")]
+    LegTooLong { episodes: u32, most: u32 },
+    #[error("a training job's state of {len} bytes ends in a padding byte of {got}, not 0")]
+    StatePadding { len: u32, got: u8 },
 }
 
 /// A job as the worker sees it once checked.
@@ -306,13 +318,24 @@ fn train_from_wire(h: &JobHeader, genes: &[WireGene]) -> Result<TrainJob, WireEr
         });
     }
     // Whether the state fits the trial is `run_training`'s check.
-    let from = match h.state_len {
+    let from: Option<LearnState> = match h.state_len {
         0 => None,
         len => {
-            let bytes = unpack_state(genes, len as usize);
-            Some(postcard::from_bytes(&bytes).map_err(|e| WireError::State(e.to_string()))?)
+            let bytes = unpack_state(genes, len)?;
+            Some(decode_all(&bytes).map_err(|e| WireError::State(e.to_string()))?)
         }
     };
+    // The coordinator sends no longer leg; a longer one would have this
+    // worker keep records without bound, for an answer no frame carries.
+    let episodes = h
+        .until
+        .saturating_sub(from.as_ref().map_or(0, |s| s.episodes));
+    if episodes > MOST_EPISODES_PER_CHUNK {
+        return Err(WireError::LegTooLong {
+            episodes,
+            most: MOST_EPISODES_PER_CHUNK,
+        });
+    }
     Ok(TrainJob {
         env: h.env,
         guide: h.guide,
@@ -340,11 +363,16 @@ pub fn pack_state(state: Option<&LearnState>) -> (Vec<WireGene>, u32) {
     (genes, bytes.len() as u32)
 }
 
-/// The first `len` bytes packed in `genes` (checked to be enough).
-fn unpack_state(genes: &[WireGene], len: usize) -> Vec<u8> {
+/// The first `len` bytes packed in `genes` (checked to be enough); the
+/// byte after an odd length pads the last gene, and is 0.
+fn unpack_state(genes: &[WireGene], len: u32) -> Result<Vec<u8>, WireError> {
     let mut bytes: Vec<u8> = genes.iter().flat_map(|g| [g.action, g.duration]).collect();
-    bytes.truncate(len);
-    bytes
+    match bytes.get(len as usize) {
+        Some(&got) if got != 0 => return Err(WireError::StatePadding { len, got }),
+        _ => {}
+    }
+    bytes.truncate(len as usize);
+    Ok(bytes)
 }
 
 impl EvalJob {
@@ -383,8 +411,21 @@ impl EvalJob {
                 genomes: h.genomes,
             });
         }
+        if h.genome_length == 0 {
+            return Err(WireError::NoGenes);
+        }
+        // The coordinator cuts no larger chunk; a larger one would have
+        // this worker allocate and fly without bound.
+        let most = most_genomes_per_chunk(h.genome_length as usize);
+        if h.genomes as usize > most {
+            return Err(WireError::TooManyGenomes {
+                genomes: h.genomes,
+                length: h.genome_length,
+                most,
+            });
+        }
         let expected = h.genomes as usize * h.genome_length as usize;
-        if genes.len() != expected || h.genome_length == 0 {
+        if genes.len() != expected {
             return Err(WireError::Length {
                 genomes: h.genomes,
                 length: h.genome_length,
@@ -475,8 +516,7 @@ impl ChunkResult {
         genomes: usize,
         length: usize,
     ) -> Result<ChunkResult, WireError> {
-        let r: ChunkResult =
-            postcard::from_bytes(bytes).map_err(|e| WireError::Decode(e.to_string()))?;
+        let r: ChunkResult = decode_all(bytes).map_err(|e| WireError::Decode(e.to_string()))?;
         if r.evaluations.len() != genomes {
             return Err(WireError::Count {
                 expected: genomes,
@@ -515,8 +555,7 @@ impl ChunkResult {
 
 /// Decodes and checks a training result as the answer to `job`.
 pub fn decode_training(bytes: &[u8], job: &TrainJob) -> Result<TrainResult, WireError> {
-    let r: TrainResult =
-        postcard::from_bytes(bytes).map_err(|e| WireError::Decode(e.to_string()))?;
+    let r: TrainResult = decode_all(bytes).map_err(|e| WireError::Decode(e.to_string()))?;
     if !r.is_plausible(job) {
         return Err(WireError::ImplausibleTraining(job.until));
     }
@@ -527,6 +566,28 @@ pub fn decode_training(bytes: &[u8], job: &TrainJob) -> Result<TrainResult, Wire
 pub fn encode(value: &impl Serialize) -> Vec<u8> {
     // Encoding plain structs into a Vec cannot fail.
     postcard::to_allocvec(value).unwrap_or_default()
+}
+
+/// Why bytes from another process are not one value.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum Undecodable {
+    #[error("{0}")]
+    Malformed(String),
+    #[error("{0} bytes left over after the value")]
+    Trailing(usize),
+}
+
+/// Decodes all of `bytes` as one `T`, refusing a value followed by bytes
+/// it does not account for: every decoder of another process's bytes
+/// goes through here.
+pub(crate) fn decode_all<'a, T: Deserialize<'a>>(bytes: &'a [u8]) -> Result<T, Undecodable> {
+    let (value, rest) =
+        postcard::take_from_bytes(bytes).map_err(|e| Undecodable::Malformed(e.to_string()))?;
+    if rest.is_empty() {
+        Ok(value)
+    } else {
+        Err(Undecodable::Trailing(rest.len()))
+    }
 }
 
 #[cfg(test)]

@@ -106,6 +106,15 @@ fn results_round_trip_and_bad_ones_are_refused() {
         ChunkResult::decode(&bytes[..bytes.len() - 3], Pass::Guide, 2, 2),
         Err(WireError::Decode(_))
     ));
+    // A good result with a byte after it is a malformed one.
+    let mut longer = bytes.clone();
+    longer.push(0);
+    assert_eq!(
+        ChunkResult::decode(&longer, Pass::Guide, 2, 2),
+        Err(WireError::Decode(
+            "1 bytes left over after the value".into()
+        ))
+    );
 
     let nan = ChunkResult {
         evaluations: vec![evaluation(500.0), evaluation(f64::NAN)],
@@ -139,6 +148,54 @@ fn results_round_trip_and_bad_ones_are_refused() {
 }
 
 #[test]
+fn a_job_larger_than_a_chunk_may_be_is_refused_before_it_is_read() {
+    // A genome of no genes is named as such, not as a count of genes.
+    assert_eq!(Job::from_wire(&header(5, 0), &[]), Err(WireError::NoGenes));
+    // One genome more than a chunk carries, every gene well-formed: the
+    // worker would allocate and fly without bound.
+    let most = most_genomes_per_chunk(1);
+    let genes = vec![gene(0, 1); most + 1];
+    assert_eq!(
+        Job::from_wire(&header(most as u32 + 1, 1), &genes),
+        Err(WireError::TooManyGenomes {
+            genomes: most as u32 + 1,
+            length: 1,
+            most
+        })
+    );
+    assert!(Job::from_wire(&header(most as u32, 1), &genes[..most]).is_ok());
+    // A leg of one episode more than a chunk's records may hold, from the
+    // trial's start; from one episode in, the same end fits.
+    let mut h = header(0, 0);
+    h.kind = KIND_TRAIN;
+    h.learn = LearnParams {
+        episodes: MOST_EPISODES_PER_CHUNK + 1,
+        ..LearnParams::default()
+    };
+    h.until = h.learn.episodes;
+    assert_eq!(
+        Job::from_wire(&h, &[]),
+        Err(WireError::LegTooLong {
+            episodes: MOST_EPISODES_PER_CHUNK + 1,
+            most: MOST_EPISODES_PER_CHUNK
+        })
+    );
+    let state = LearnState {
+        episodes: 1,
+        rng_word: 0,
+        first_safe: None,
+        recent: vec![false],
+        weights: Vec::new(),
+    };
+    let (genes, len) = pack_state(Some(&state));
+    h.state_len = len;
+    assert!(matches!(
+        Job::from_wire(&h, &genes),
+        Ok(Job::Train(TrainJob { from: Some(_), .. }))
+    ));
+}
+
+#[test]
 fn training_jobs_carry_their_state_and_sane_parameters() {
     let mut h = header(0, 0);
     h.kind = KIND_TRAIN;
@@ -158,6 +215,7 @@ fn training_jobs_carry_their_state_and_sane_parameters() {
     );
     // A leg's state, of an odd number of bytes and of an even one, comes
     // through whole.
+    let mut odd = 0;
     for weights in [vec![(3, 0.5)], vec![(3, 0.5), (70_000, -1.25e-3)]] {
         let state = LearnState {
             episodes: 40,
@@ -174,12 +232,25 @@ fn training_jobs_carry_their_state_and_sane_parameters() {
             panic!("the leg was refused");
         };
         assert_eq!((job.from, job.until), (Some(state), 100));
+        if len % 2 == 1 {
+            // The byte that pads the last gene is 0.
+            let mut padded = genes.clone();
+            if let Some(last) = padded.last_mut() {
+                last.duration = 7;
+            }
+            assert_eq!(
+                Job::from_wire(&leg, &padded),
+                Err(WireError::StatePadding { len, got: 7 })
+            );
+            odd += 1;
+        }
         leg.state_len = len + 2;
         assert!(matches!(
             Job::from_wire(&leg, &genes),
             Err(WireError::StateLength { .. })
         ));
     }
+    assert_eq!(odd, 1, "one of the states takes an odd number of bytes");
     let mut garbage = h;
     garbage.state_len = 4;
     assert!(matches!(
@@ -237,6 +308,14 @@ fn training_results_are_checked() {
         )
     };
     assert_eq!(decode_training(&encode(&good), &trial(2)), Ok(good.clone()));
+    let mut longer = encode(&good);
+    longer.extend([0, 0]);
+    assert_eq!(
+        decode_training(&longer, &trial(2)),
+        Err(WireError::Decode(
+            "2 bytes left over after the value".into()
+        ))
+    );
     assert!(decode_training(&encode(&good), &trial(3)).is_err());
     let mut lying = good.clone();
     lying.training.first_safe = Some(1);
