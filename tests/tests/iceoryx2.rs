@@ -569,6 +569,35 @@ fn a_spawned_worker_whose_coordinator_died_before_it_joined_stops() {
 }
 
 #[test]
+fn a_worker_whose_coordinator_is_gone_as_it_starts_stops_cleanly() {
+    let _one_at_a_time = serial();
+    let iox = Iox::new("gone");
+    // Pid 1 is not the worker's parent (this test is), so the worker finds
+    // its coordinator gone at its first look, as one spawned by a
+    // coordinator killed at once would. `--metrics` widens the window
+    // between that look and the worker's own start.
+    for _ in 0..5 {
+        let out = iox
+            .command("lander-worker")
+            .args(["--run", "gone", "--parent", "1", "--metrics", "127.0.0.1:0"])
+            .output()
+            .unwrap();
+        let said = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            out.status.success(),
+            "it stops as asked, not killed by its own SIGTERM: {:?}: {said}",
+            out.status
+        );
+        assert!(
+            said.contains("the coordinator is gone after 0 jobs"),
+            "{said}"
+        );
+    }
+    assert_eq!(iox.root_files(), Vec::<std::path::PathBuf>::new());
+    assert_eq!(iox.shm_files(), Vec::<String>::new());
+}
+
+#[test]
 fn a_worker_stopped_and_resumed_keeps_waiting_until_sigint() {
     let _one_at_a_time = serial();
     let iox = Iox::new("resumed");
@@ -722,6 +751,20 @@ fn an_unusable_iceoryx2_folder_is_named_with_its_variable() {
                 && err.contains("LANDER_IOX2_ROOT"),
             "{err}"
         );
+    }
+    // Bytes that are not UTF-8 are refused, not taken for the default.
+    use std::os::unix::ffi::OsStrExt;
+    for var in ["LANDER_IOX2_ROOT", "LANDER_IOX2_PREFIX"] {
+        let out = iox
+            .command("lander")
+            .args(["run", "--workers", "1", "--out"])
+            .arg(dir.path().join("out"))
+            .env(var, std::ffi::OsStr::from_bytes(b"/tmp/\xff"))
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{var} was accepted");
+        let err = stderr(&out);
+        assert!(err.contains(var) && err.contains("is not UTF-8"), "{err}");
     }
 }
 

@@ -133,6 +133,20 @@ fn main() -> ExitCode {
         tracing::error!("--run {e}");
         return ExitCode::FAILURE;
     }
+    // SIGINT and SIGTERM raise `stop` (over iceoryx2, until its node
+    // handles them): a Ctrl-C (it reaches spawned workers too, in their
+    // coordinator's process group) that killed the worker while it made
+    // its node, or probed the iceoryx2 root, left files half written that
+    // no later cleanup could read. Before the watch on the parent starts:
+    // a worker whose coordinator is gone as it starts would otherwise die
+    // of the SIGTERM the watch sends it.
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
+        if let Err(e) = signal_hook::flag::register(signal, stop.clone()) {
+            tracing::error!("cannot handle signal {signal}: {e}");
+            return ExitCode::FAILURE;
+        }
+    }
     if let Some(Err(e)) = args.parent.map(parent::watch) {
         tracing::error!("cannot watch the coordinator that started this worker: {e}");
         return ExitCode::FAILURE;
@@ -174,18 +188,6 @@ fn main() -> ExitCode {
         Note::Warning => tracing::warn!("{msg}"),
         Note::Info => tracing::info!("{msg}"),
     };
-    // SIGINT and SIGTERM raise `stop`. Over iceoryx2, only until its node
-    // handles them: a Ctrl-C (it reaches spawned workers too, in their
-    // coordinator's process group) that killed the worker while it made
-    // its node, or probed the iceoryx2 root, left files half written that
-    // no later cleanup could read.
-    let stop = Arc::new(AtomicBool::new(false));
-    for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
-        if let Err(e) = signal_hook::flag::register(signal, stop.clone()) {
-            tracing::error!("cannot handle signal {signal}: {e}");
-            return ExitCode::FAILURE;
-        }
-    }
     let served = match args.transport {
         TransportArg::Iceoryx2 => {
             let spin = Spin::new(Duration::from_micros(args.spin_us));
