@@ -284,7 +284,9 @@ pub trait Trainer {
     }
 
     /// Returns the results in job order, showing `done` each one as it
-    /// arrives.
+    /// arrives, and again, in its place, one that arrives again for a job
+    /// whose first answer was given up (a pool refuses a worker for one
+    /// answer and believes none it gave).
     fn train(
         &mut self,
         jobs: &[TrainJob],

@@ -12,7 +12,8 @@ use lander_coordinator::config::RunConfig;
 use lander_coordinator::evaluator::{Backend, Busy};
 use lander_coordinator::experiment::outputs::{ordered, write_outputs};
 use lander_coordinator::experiment::{
-    can_run, experiment_tasks, run, trials, Experiment, ExperimentError, Progress, Store, TrialId,
+    can_run, experiment_tasks, keep, run, trials, Experiment, ExperimentError, Progress, Store,
+    TrialId,
 };
 use lander_coordinator::stop::Stop;
 use lander_coordinator::trial::Generation;
@@ -269,13 +270,17 @@ impl Progress<TrialId> for Bars<'_> {
         self.store
             .save(&record)
             .map_err(|e| ExperimentError::Store(e.to_string()))?;
-        if record.method == Method::Qlearning {
+        let (id, method) = (TrialId::of(&record), record.method);
+        // A trial heard again only replaces its record.
+        if !keep(self.records, record) {
+            return Ok(());
+        }
+        if method == Method::Qlearning {
             self.training.finished(self.bars);
-        } else if let Some(bar) = self.running.remove(&TrialId::of(&record)) {
+        } else if let Some(bar) = self.running.remove(&id) {
             bar.finish_and_clear();
             self.bars.remove(&bar);
         }
-        self.records.push(record);
         self.overall.inc(1);
         Ok(())
     }

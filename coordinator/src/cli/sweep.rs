@@ -11,7 +11,7 @@ use anyhow::Context;
 use clap::Args;
 use indicatif::{MultiProgress, ProgressBar};
 use lander_coordinator::config::RunConfig;
-use lander_coordinator::experiment::{ExperimentError, Progress};
+use lander_coordinator::experiment::{keep, ExperimentError, Progress};
 use lander_coordinator::stop::Stop;
 use lander_coordinator::sweep::outputs::write_sweep_outputs;
 use lander_coordinator::sweep::{Plan, Sweep, SweepStore, SweepTrial};
@@ -236,11 +236,16 @@ impl Progress<usize> for Bars<'_> {
     }
 
     fn finished(&mut self, task: usize, record: TrialRecord) -> Result<(), ExperimentError> {
+        // A trial heard again only replaces its records.
+        let mut added = false;
         for &SweepTrial { setting, .. } in &self.plan.groups[task] {
             self.store.settings[setting]
                 .save(&record)
                 .map_err(|e| ExperimentError::Store(e.to_string()))?;
-            self.records[setting].push(record.clone());
+            if !keep(&mut self.records[setting], record.clone()) {
+                continue;
+            }
+            added = true;
             self.overall.inc(1);
             let whole = self.sweep.settings[setting].experiment.trial_count() as usize;
             let finished = self.records[setting].len();
@@ -252,6 +257,9 @@ impl Progress<usize> for Bars<'_> {
                     self.settings.remove(&setting);
                 }
             }
+        }
+        if !added {
+            return Ok(());
         }
         if record.method == Method::Qlearning {
             self.training.finished(self.bars);

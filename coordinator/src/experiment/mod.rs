@@ -14,6 +14,6 @@ pub mod store;
 
 pub use file::Experiment;
 pub use runner::{
-    can_run, experiment_tasks, run, trials, ExperimentError, Progress, Task, TrialId,
+    can_run, experiment_tasks, keep, run, trials, ExperimentError, Progress, Task, TrialId,
 };
 pub use store::{Store, StoreError};

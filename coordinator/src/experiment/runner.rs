@@ -68,7 +68,28 @@ pub fn experiment_tasks(exp: &Experiment, ids: &[TrialId]) -> Vec<Task<TrialId>>
 pub trait Progress<K> {
     fn started(&mut self, key: K, cfg: &RunConfig);
     fn generation(&mut self, key: K, generation: &Generation);
+    /// A trial's record, once it is finished; again, with the record that
+    /// replaces the first, for a Q(λ) trial whose result was given up
+    /// since (the worker that gave it was refused for another answer, and
+    /// the trial flown again). [`keep`] keeps records so.
     fn finished(&mut self, key: K, record: TrialRecord) -> Result<(), ExperimentError>;
+}
+
+/// Keeps `record` among `records`: in place of the record of the same
+/// trial, where [`Progress::finished`] hears a trial again, or else added.
+/// Returns whether it was added.
+pub fn keep(records: &mut Vec<TrialRecord>, record: TrialRecord) -> bool {
+    let id = TrialId::of(&record);
+    match records.iter_mut().find(|r| TrialId::of(r) == id) {
+        Some(earlier) => {
+            *earlier = record;
+            false
+        }
+        None => {
+            records.push(record);
+            true
+        }
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -527,5 +548,30 @@ mod tests {
                 "{genes} genes: other results"
             );
         }
+    }
+
+    #[test]
+    fn a_record_heard_again_replaces_the_first() {
+        let record = |trial, wall_s| TrialRecord {
+            method: Method::Qlearning,
+            seed: 1,
+            trial,
+            x0: 0.0,
+            pad_x: 0.0,
+            landed: false,
+            generations: None,
+            restarts: None,
+            episodes: None,
+            wall_s,
+            fitness: Vec::new(),
+            best: None,
+            learning: None,
+        };
+        let mut records = Vec::new();
+        assert!(keep(&mut records, record(1, 1.0)));
+        assert!(keep(&mut records, record(2, 2.0)));
+        assert!(!keep(&mut records, record(1, 3.0)));
+        let kept: Vec<(u64, f64)> = records.iter().map(|r| (r.trial, r.wall_s)).collect();
+        assert_eq!(kept, [(1, 3.0), (2, 2.0)]);
     }
 }

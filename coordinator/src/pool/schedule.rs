@@ -98,7 +98,9 @@ impl<T: Transport> Pool<T> {
     /// Runs every chunk on the workers and returns the answers in chunk
     /// order. `decode(i, body)` checks and decodes the answer to chunk
     /// `i`; an answer it refuses costs its worker the link, and the chunk
-    /// runs elsewhere. `finished(i, result)` hears of each result taken.
+    /// runs elsewhere. `finished(i, result)` hears of each result taken:
+    /// again for a chunk whose first was given up, as every answer of a
+    /// worker refused since is, with the result taken in its place.
     pub fn run_chunks<R>(
         &mut self,
         chunks: &[Chunk],

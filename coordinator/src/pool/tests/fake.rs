@@ -16,7 +16,9 @@ use std::time::{Duration, Instant};
 /// answer fails the link's own checks and breaks it. One that `flies`
 /// evaluates or trains each chunk as a worker does, and answers with the
 /// result. One with `looks_per_answer` n above 0 is slow: it answers one
-/// chunk at every n-th look, none at the others.
+/// chunk at every n-th look, none at the others. One that `spoils` a
+/// chunk answers it, the first time it flies it, with bytes that do not
+/// decode.
 pub struct Recorder {
     pub id: u64,
     pub chunks: Vec<usize>,
@@ -37,6 +39,7 @@ pub struct Recorder {
     pub looks: usize,
     /// The most chunks it ever held at once.
     pub most_held: usize,
+    pub spoils: Option<usize>,
 }
 
 impl Recorder {
@@ -55,6 +58,7 @@ impl Recorder {
             looks_per_answer: 0,
             looks: 0,
             most_held: 0,
+            spoils: None,
         }
     }
 
@@ -107,6 +111,7 @@ impl WorkerLink for Recorder {
         self.sends_left = self.sends_left.map(|n| n - 1);
         if self.flies {
             let body = match Job::from_wire(&header, genes).map_err(|e| e.to_string())? {
+                _ if self.spoils.take_if(|&mut c| c == chunk).is_some() => b"spoilt".to_vec(),
                 Job::Evaluate(job) => job.run().encode(),
                 Job::Train(job) => encode(&run_training(&job)?),
             };

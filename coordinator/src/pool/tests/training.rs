@@ -51,6 +51,85 @@ fn a_long_trial_goes_out_in_legs_and_comes_back_whole() {
     assert_eq!(sent, 3 + 1 + 2, "chunks sent");
 }
 
+/// A pool whose first link answers trial 0 well and trial 2 with bytes
+/// that do not decode, and whose second flies as it should.
+fn one_spoiling_the_third() -> crate::pool::Pool<super::fake::Nowhere> {
+    let mut pool = super::fake::flying(2);
+    pool.links[0].spoils = Some(2);
+    pool
+}
+
+#[test]
+fn a_trial_whose_result_is_given_up_is_told_again_with_the_one_taken_in_its_place() {
+    let mut pool = one_spoiling_the_third();
+    let trials = [trial(5, 1), trial(5, 2), trial(5, 3)];
+    let mut told: Vec<(usize, TrainResult)> = Vec::new();
+    let results = pool
+        .train(&trials, &mut |i, r| told.push((i, r.clone())))
+        .unwrap();
+    let whole: Vec<TrainResult> = trials.iter().map(|t| run_training(t).unwrap()).collect();
+    assert!(results == whole);
+    // The first link answered trial 0 before its answer to trial 2 was
+    // refused: what it gave is no longer believed, and trial 0 is flown
+    // again on the second, and told again.
+    let order: Vec<usize> = told.iter().map(|(i, _)| *i).collect();
+    assert_eq!(order.iter().filter(|&&i| i == 0).count(), 2, "{order:?}");
+    assert_eq!(order.len(), 4, "{order:?}");
+    for (i, r) in &told {
+        assert!(*r == whole[*i], "trial {i} told otherwise than flown whole");
+    }
+    let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
+    assert_eq!(ids, [1], "the spoiling link is refused");
+}
+
+#[test]
+fn an_experiment_keeps_one_record_a_trial_told_twice() {
+    use crate::experiment::{keep, run, ExperimentError, Progress, Task};
+    use crate::trial::Generation;
+    use lander_model::Method;
+    use lander_report::model::TrialRecord;
+    #[derive(Default)]
+    struct Kept {
+        records: Vec<TrialRecord>,
+        told: usize,
+    }
+    impl Progress<u64> for Kept {
+        fn started(&mut self, _: u64, _: &RunConfig) {}
+        fn generation(&mut self, _: u64, _: &Generation) {}
+        fn finished(&mut self, _: u64, mut record: TrialRecord) -> Result<(), ExperimentError> {
+            record.wall_s = 0.0;
+            self.told += 1;
+            keep(&mut self.records, record);
+            Ok(())
+        }
+    }
+    let defaults = RunConfig::default();
+    let tasks: Vec<Task<u64>> = (1..=3)
+        .map(|t| Task {
+            key: t,
+            cfg: RunConfig {
+                method: Method::Qlearning,
+                trial: t,
+                qlearning: LearnParams {
+                    episodes: 5,
+                    ..defaults.qlearning
+                },
+                ..defaults.clone()
+            },
+        })
+        .collect();
+    let mut spoilt = Kept::default();
+    run(&tasks, &mut one_spoiling_the_third(), 8, &mut spoilt).unwrap();
+    let mut honest = Kept::default();
+    run(&tasks, &mut super::fake::flying(2), 8, &mut honest).unwrap();
+    assert_eq!((spoilt.told, honest.told), (4, 3));
+    let sorted = |mut r: Vec<TrialRecord>| {
+        r.sort_by_key(|r| r.trial);
+        serde_json::to_string(&r).unwrap()
+    };
+    assert_eq!(sorted(spoilt.records), sorted(honest.records));
+}
+
 #[test]
 fn a_trial_whose_state_cannot_travel_is_refused_before_any_leg_goes_out() {
     let mut pool = super::fake::flying(2);
