@@ -2,7 +2,7 @@
 //! run's registration service, and each has its own request-response and
 //! event services, since iceoryx2 delivers a request to every server.
 
-use super::link::check;
+use super::link::{check, Due};
 use super::{Answer, Arrival, ChunkTiming, Transport, WorkerLink, DEPTH};
 use crate::evaluator::EvalError;
 use iceoryx2::pending_response::PendingResponse;
@@ -186,7 +186,7 @@ struct InFlight {
     pending: Pending,
     /// When the request was sent, on the host's clock.
     sent_ns: u64,
-    deadline: Option<Instant>,
+    deadline: Option<Duration>,
 }
 
 pub struct Link {
@@ -196,6 +196,7 @@ pub struct Link {
     jobs: Notifier<ipc::Service>,
     /// Oldest first; the worker answers in order.
     busy: VecDeque<InFlight>,
+    due: Due,
     /// Jobs taken back that may still sit in the worker's queue, which the
     /// worker skips when it reaches them. They take room there until an
     /// answer to a later job shows the worker is past them: a full queue
@@ -230,6 +231,7 @@ impl Link {
             client,
             jobs,
             busy: VecDeque::new(),
+            due: Due::new(),
             passed_over: Vec::new(),
             unannounced: false,
             broken: false,
@@ -258,7 +260,8 @@ impl WorkerLink for Link {
     }
 
     fn deadline(&self) -> Option<Instant> {
-        self.busy.iter().filter_map(|f| f.deadline).min()
+        self.due
+            .at(self.busy.iter().filter_map(|f| f.deadline).min())
     }
 
     /// Gives up on the chunks in flight, returning them.
@@ -310,14 +313,14 @@ impl WorkerLink for Link {
         })();
         match sent {
             Ok(pending) => {
-                let now = Instant::now();
                 self.unannounced = true;
+                self.due.sent(self.busy.len(), Instant::now());
                 self.busy.push_back(InFlight {
                     job_id: header.job_id,
                     chunk,
                     pending,
                     sent_ns,
-                    deadline: deadline.map(|d| now + d),
+                    deadline,
                 });
                 Ok(())
             }
@@ -381,6 +384,7 @@ impl WorkerLink for Link {
                     });
                     self.passed_over.retain(|&skipped| skipped > job_id);
                     self.busy.pop_front();
+                    self.due.answered(Instant::now());
                 }
                 Err(e) => {
                     self.broken = true;

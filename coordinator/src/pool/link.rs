@@ -113,6 +113,42 @@ pub(super) fn overdue(link: &impl WorkerLink, now: Instant) -> bool {
     link.deadline().is_some_and(|d| now >= d)
 }
 
+/// When a worker with chunks in hand is overdue: a deadline after it last
+/// answered, or after it was handed a chunk with none in hand. A worker
+/// flies its chunks one after another, so a chunk queued behind others is
+/// timed from the answer to the one before it, not from when it was sent:
+/// `--deadline` is what a worker may take over one chunk.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Due {
+    since: Instant,
+}
+
+impl Due {
+    pub fn new() -> Due {
+        Due {
+            since: Instant::now(),
+        }
+    }
+
+    /// A chunk was sent at `now` to a worker that held `held` before it.
+    pub fn sent(&mut self, held: usize, now: Instant) {
+        if held == 0 {
+            self.since = now;
+        }
+    }
+
+    /// The worker answered at `now`.
+    pub fn answered(&mut self, now: Instant) {
+        self.since = now;
+    }
+
+    /// When the worker is overdue, the chunks in hand allowing `deadline`
+    /// each (`None`: no deadline, or no chunk in hand).
+    pub fn at(&self, deadline: Option<Duration>) -> Option<Instant> {
+        deadline.map(|d| self.since + d)
+    }
+}
+
 /// Checks a response against the job it answers and returns its body.
 pub(super) fn check(job_id: u64, h: &ResultHeader, body: &[u8]) -> Result<Vec<u8>, String> {
     if h.version != PROTOCOL_VERSION {
@@ -131,5 +167,29 @@ pub(super) fn check(job_id: u64, h: &ResultHeader, body: &[u8]) -> Result<Vec<u8
             String::from_utf8_lossy(body)
         )),
         None => Err(format!("unknown status {}", h.status)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Due;
+    use std::time::{Duration, Instant};
+
+    #[test]
+    fn a_chunk_queued_behind_others_is_timed_from_the_answer_before_it() {
+        let s = Duration::from_secs;
+        let t0 = Instant::now();
+        let mut due = Due::new();
+        // Two chunks sent a second apart, to a worker holding none.
+        due.sent(0, t0);
+        due.sent(1, t0 + s(1));
+        assert_eq!(due.at(Some(s(10))), Some(t0 + s(10)));
+        // The first answered after 8 s: the second has 10 s from then.
+        due.answered(t0 + s(8));
+        assert_eq!(due.at(Some(s(10))), Some(t0 + s(18)));
+        assert_eq!(due.at(None), None, "no deadline");
+        // Idle, then handed one: timed from then.
+        due.sent(0, t0 + s(30));
+        assert_eq!(due.at(Some(s(10))), Some(t0 + s(40)));
     }
 }

@@ -5,7 +5,7 @@
 //! worker's own key; its reply is the result. Every callback only forwards
 //! into a channel the pool sleeps on, so zenoh's threads never block.
 
-use super::link::check;
+use super::link::{check, Due};
 use super::{Answer, Arrival, ChunkTiming, Transport, WorkerLink, DEPTH};
 use crate::evaluator::EvalError;
 use lander_protocol::envelope::{decode_result, encode_job};
@@ -153,6 +153,7 @@ impl Transport for Zenoh {
             leave: self.keys.leave(a.id),
             bell: self.bell.clone(),
             busy: VecDeque::new(),
+            due: Due::new(),
             broken: false,
         })
     }
@@ -208,7 +209,7 @@ struct InFlight {
     slot: Arc<Mutex<Slot>>,
     /// When the request was sent, on the host's clock.
     sent_ns: u64,
-    deadline: Option<Instant>,
+    deadline: Option<Duration>,
 }
 
 pub struct Link {
@@ -220,6 +221,7 @@ pub struct Link {
     bell: Sender<Event>,
     /// Oldest first; the worker answers in order.
     busy: VecDeque<InFlight>,
+    due: Due,
     broken: bool,
 }
 
@@ -241,7 +243,8 @@ impl WorkerLink for Link {
     }
 
     fn deadline(&self) -> Option<Instant> {
-        self.busy.iter().filter_map(|f| f.deadline).min()
+        self.due
+            .at(self.busy.iter().filter_map(|f| f.deadline).min())
     }
 
     fn abandon(&mut self) -> Vec<usize> {
@@ -269,8 +272,10 @@ impl WorkerLink for Link {
             .payload(encode_job(&header, genes))
             .consolidation(ConsolidationMode::None)
             // zenoh's own timeout only ends the query; the pool's deadline
-            // decides, a little earlier.
-            .timeout(deadline.map_or(NO_DEADLINE, |d| d + Duration::from_secs(5)))
+            // decides, a little earlier, timing a query from the answer to
+            // the one before it (`Due`): up to `DEPTH` deadlines after it
+            // was sent.
+            .timeout(deadline.map_or(NO_DEADLINE, |d| d * DEPTH as u32 + Duration::from_secs(5)))
             .with(CallbackDrop {
                 callback: move |reply: Reply| {
                     let answer = match reply.into_result() {
@@ -296,13 +301,13 @@ impl WorkerLink for Link {
             self.broken = true;
             return Err(format!("sending a query: {e}"));
         }
-        let now = Instant::now();
+        self.due.sent(self.busy.len(), Instant::now());
         self.busy.push_back(InFlight {
             job_id: header.job_id,
             chunk,
             slot,
             sent_ns,
-            deadline: deadline.map(|d| now + d),
+            deadline,
         });
         Ok(())
     }
@@ -344,6 +349,7 @@ impl WorkerLink for Link {
                         timing,
                     });
                     self.busy.remove(i);
+                    self.due.answered(Instant::now());
                 }
                 Err(e) => {
                     self.broken = true;
