@@ -189,9 +189,10 @@ fn a_killed_run_resumes_to_the_outputs_of_a_run_never_stopped() {
 }
 
 /// `stop` sent to a guided run 20 generations in, checkpointing only when
-/// stopped: it must save, and a resume must finish it to the outputs of a
-/// run never stopped. Returns the stopped run's output.
-fn stopped_then_resumed(stop: impl FnOnce(u32)) -> Output {
+/// stopped, in-process or over 2 workers (where the stop comes amid a
+/// generation's answers): it must save, and a resume must finish it to
+/// the outputs of a run never stopped. Returns the stopped run's output.
+fn stopped_then_resumed(workers: bool, stop: impl FnOnce(u32)) -> Output {
     let dir = tempfile::tempdir().unwrap();
     let cfg = config(dir.path());
     let whole_dir = dir.path().join("whole");
@@ -201,10 +202,13 @@ fn stopped_then_resumed(stop: impl FnOnce(u32)) -> Output {
     );
     let out = dir.path().join("run");
     let out_s = out.to_str().unwrap();
-    let mut a = args(&cfg, "guided", out_s, &[]);
-    let n = a.len();
-    a[n - 1] = "0";
-    let child = Command::new(binary("lander"))
+    let iox = Iox::new(&format!("stopped_{workers}"));
+    let extra: &[&str] = if workers { &["--workers", "2"] } else { &[] };
+    let mut a = args(&cfg, "guided", out_s, extra);
+    let at = a.iter().position(|&a| a == "--checkpoint-every").unwrap() + 1;
+    a[at] = "0";
+    let child = iox
+        .command("lander")
         .args(&a)
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -227,7 +231,15 @@ fn stopped_then_resumed(stop: impl FnOnce(u32)) -> Output {
 
 #[test]
 fn sigterm_saves_the_run_and_resume_finishes_it() {
-    stopped_then_resumed(|pid| lander_tests::signal(pid, "TERM"));
+    stopped_then_resumed(false, |pid| lander_tests::signal(pid, "TERM"));
+}
+
+/// Stopped over workers, the generation under way is saved as it was
+/// bred, not with the guided genes of the answers already in: flown again
+/// on resuming, those would draw otherwise.
+#[test]
+fn sigterm_over_workers_saves_the_generation_as_bred_and_resume_finishes_it() {
+    stopped_then_resumed(true, |pid| lander_tests::signal(pid, "TERM"));
 }
 
 /// One request can come as two signals: `timeout -s INT` signals the
@@ -236,7 +248,7 @@ fn sigterm_saves_the_run_and_resume_finishes_it() {
 /// with nothing saved); a resume finishes it.
 #[test]
 fn a_signal_that_comes_twice_at_once_saves_the_run_as_one_does() {
-    let stopped = stopped_then_resumed(|pid| {
+    let stopped = stopped_then_resumed(false, |pid| {
         // From here rather than from a shell, whose start-up on a loaded
         // host could put the two past the 100 ms that make a second signal
         // a second request. The 10 ms between them keep the second from

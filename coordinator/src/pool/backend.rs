@@ -310,6 +310,14 @@ impl<T: Transport> Pool<T> {
         if results.is_err() {
             // Nothing of this step is waited for any more.
             self.abandon_in_flight();
+            // The genomes go back as they were bred, their actions as the
+            // chunks carried them out: a trial saved now (stopped, or out
+            // of workers) flies them again on resuming, and a guided pass
+            // over genomes it has rewritten once draws otherwise.
+            for ((b, range, _, _), chunk) in spans.iter().zip(&chunks) {
+                let bred: Vec<u8> = chunk.genes.iter().map(|g| g.action).collect();
+                write_back(&mut batches[*b].bred_genomes()[range.clone()], &bred);
+            }
         }
         let results = results?;
         if unbred && batches.len() > 1 {

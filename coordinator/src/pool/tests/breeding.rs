@@ -278,3 +278,49 @@ fn while_only_the_worker_on_its_cpu_has_joined_the_coordinator_still_flies_in_it
     assert!(pool.flown_here() > 0, "the coordinator flew nothing");
     assert_eq!(pool.children.stop_all(&[]), 0);
 }
+
+#[test]
+fn a_step_stopped_midway_leaves_its_genomes_as_bred() {
+    use crate::evaluator::EvalError;
+    let cfg = RunConfig::default();
+    let (parents, fitness) = &parents(&cfg)[0];
+    let key = StreamKey::new(9, 0, 0, 2);
+    let bred: Vec<Genome> = offspring(&cfg.ga, parents, fitness, key).collect();
+    // The first link flies its chunk at once; the second holds its own
+    // without answering, and the stop comes while the pool waits for it.
+    let mut pool = super::fake::flying(1);
+    pool.links
+        .push(super::fake::Recorder::holding(1, Vec::new()));
+    pool.transport.stops = Some(pool.opts.stop.clone());
+    let mut genomes = Vec::new();
+    let batch = Batch::new(
+        cfg.env(0),
+        Pass::Guide,
+        cfg.guided,
+        key,
+        cfg.ga.max_duration,
+        &mut genomes,
+    )
+    .breeding(Some(offspring(&cfg.ga, parents, fitness, key)));
+    assert!(matches!(
+        pool.evaluate_many(vec![batch]),
+        Err(EvalError::Interrupted)
+    ));
+    assert_eq!((pool.links[0].sent.len(), pool.links[1].sent.len()), (1, 1));
+    // The answer taken had rewritten its genomes' actions...
+    let mut flown = bred.clone();
+    let mut evaluator = InProcess::new(1).unwrap();
+    let batch = Batch::new(
+        cfg.env(0),
+        Pass::Guide,
+        cfg.guided,
+        key,
+        cfg.ga.max_duration,
+        &mut flown,
+    );
+    evaluator.evaluate_many(vec![batch]).unwrap();
+    assert_ne!(flown, bred, "the guided pass changes some actions");
+    // ...and they are back as bred: a trial saved now resumes as it
+    // would have gone on.
+    assert!(genomes == bred, "the genomes are not as bred");
+}

@@ -165,10 +165,12 @@ impl WorkerLink for Recorder {
 }
 
 /// No transport: no worker ever arrives, and a sleep returns at once,
-/// counted.
+/// counted; with `stops`, the first sleep asks it, as a Ctrl-C while the
+/// pool waits for an answer would.
 #[derive(Default)]
 pub struct Nowhere {
     pub sleeps: usize,
+    pub stops: Option<Stop>,
 }
 
 impl Transport for Nowhere {
@@ -187,6 +189,9 @@ impl Transport for Nowhere {
     }
     fn sleep(&mut self, _: Duration) -> Result<(), EvalError> {
         self.sleeps += 1;
+        if let Some(stop) = self.stops.take() {
+            stop.ask();
+        }
         Ok(())
     }
     /// The fakes answer from memory, as iceoryx2 workers do.
