@@ -121,7 +121,12 @@ impl<'a> Batch<'a> {
 
     /// Evaluates every genome on `pool`, each flown by `crew` as soon as
     /// it is bred, while this thread breeds the next (`pipeline`).
+    /// A batch partly bred already (read with [`Batch::bred_up_to`]) is
+    /// evaluated here: the crew numbers genomes from the first bred.
     fn evaluate_as_bred(mut self, crew: &Arc<Crew>, pool: &rayon::ThreadPool) -> Vec<Evaluation> {
+        if !self.genomes.is_empty() {
+            return self.evaluate_here();
+        }
         let Some(offspring) = self.offspring.take() else {
             return self.evaluate_here();
         };

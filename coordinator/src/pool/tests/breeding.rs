@@ -324,3 +324,33 @@ fn a_step_stopped_midway_leaves_its_genomes_as_bred() {
     // would have gone on.
     assert!(genomes == bred, "the genomes are not as bred");
 }
+
+#[test]
+fn a_batch_read_in_part_before_it_flies_flies_as_one_bred_whole_on_any_thread_count() {
+    let cfg = RunConfig::default();
+    let (parents, fitness) = &parents(&cfg)[0];
+    let key = StreamKey::new(9, 0, 0, 2);
+    let fly = |threads: usize, read: usize| {
+        let mut genomes = Vec::new();
+        let mut batch = Batch::new(
+            cfg.env(0),
+            Pass::Guide,
+            cfg.guided,
+            key,
+            cfg.ga.max_duration,
+            &mut genomes,
+        )
+        .breeding(Some(offspring(&cfg.ga, parents, fitness, key)));
+        batch.bred_up_to(read);
+        let evaluations = InProcess::new(threads)
+            .unwrap()
+            .evaluate_many(vec![batch])
+            .unwrap();
+        (evaluations, genomes)
+    };
+    let whole = fly(1, 0);
+    assert_eq!(whole.1.len(), cfg.ga.population);
+    for threads in [1, 2] {
+        assert!(fly(threads, 3) == whole, "{threads} threads");
+    }
+}
