@@ -11,7 +11,6 @@ use crate::config::RunConfig;
 use crate::trial::TrialState;
 use lander_model::learn::LearnState;
 use serde::{Deserialize, Serialize};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// The file's name in a run's folder.
@@ -156,26 +155,8 @@ pub fn decode(path: &Path, bytes: &[u8]) -> Result<Checkpoint, CheckpointError> 
 /// Writes `checkpoint` into `dir` atomically and durably: after a crash
 /// the folder holds either the previous checkpoint or this one.
 pub fn save(dir: &Path, checkpoint: &CheckpointRef) -> Result<(), CheckpointError> {
-    let path = dir.join(FILE);
-    let tmp = dir.join(format!("{FILE}.tmp"));
-    let written = std::fs::File::create(&tmp).and_then(|mut file| {
-        file.write_all(&encode(checkpoint))?;
-        file.sync_all()
-    });
-    if let Err(e) = written {
-        // A half-written file (a full disk) is not left beside the last
-        // good checkpoint.
-        let _ = std::fs::remove_file(&tmp);
-        return Err(io(&tmp)(e));
-    }
-    if let Err(e) = std::fs::rename(&tmp, &path) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(io(&path)(e));
-    }
-    // The rename itself is durable only once the folder is synced.
-    std::fs::File::open(dir)
-        .and_then(|d| d.sync_all())
-        .map_err(io(dir))
+    crate::run_files::replace_durably(&dir.join(FILE), &encode(checkpoint))
+        .map_err(|e| io(&e.path)(e.cause))
 }
 
 /// Removes `dir`'s checkpoint, if it has one: the run it saved is over.

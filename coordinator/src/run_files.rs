@@ -382,10 +382,17 @@ impl RunLog {
     }
 
     /// Sends every line written to the file, in one write(2) as a rule.
+    /// What a write that failed partway did send is not kept to go again:
+    /// a later call (the disk freed) sends only the rest, and the log
+    /// holds no line twice, nor part of one.
     pub fn finish(&mut self) -> Result<(), WriteError> {
-        if !self.pending.is_empty() {
-            self.file.write_all(&self.pending).map_err(at(&self.path))?;
-            self.pending.clear();
+        while !self.pending.is_empty() {
+            match self.file.write(&self.pending) {
+                Ok(0) => return Err(at(&self.path)(std::io::ErrorKind::WriteZero.into())),
+                Ok(sent) => drop(self.pending.drain(..sent)),
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(at(&self.path)(e)),
+            }
         }
         self.flushed = Instant::now();
         Ok(())
@@ -408,14 +415,42 @@ impl Drop for RunLog {
     }
 }
 
-/// Writes `value` as pretty JSON to `path`, via a temporary file and a
-/// rename so a reader never sees half a file.
+/// Writes `value` as pretty JSON to `path` ([`replace_durably`]): a
+/// reader never sees half a file, and after a crash the file is whole,
+/// the old one or this.
 pub fn write_json(path: &Path, value: &impl Serialize) -> Result<(), WriteError> {
-    let tmp = path.with_extension("json.tmp");
     let mut text = serde_json::to_string_pretty(value).map_err(|e| at(path)(e.into()))?;
     text.push('\n');
-    std::fs::write(&tmp, text).map_err(at(&tmp))?;
-    std::fs::rename(&tmp, path).map_err(at(path))
+    replace_durably(path, text.as_bytes())
+}
+
+/// Replaces `path` with `bytes` atomically and durably: a temporary file
+/// beside it (its name with `.tmp` added), synced, renamed over it, and
+/// the folder synced, so that after a crash `path` holds what it held or
+/// `bytes`, never part of them. A temporary file that could not be
+/// written whole (a full disk) is removed.
+pub fn replace_durably(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(".tmp");
+    let tmp = path.with_file_name(name);
+    let written = File::create(&tmp).and_then(|mut file| {
+        file.write_all(bytes)?;
+        file.sync_all()
+    });
+    if let Err(e) = written {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(at(&tmp)(e));
+    }
+    if let Err(e) = std::fs::rename(&tmp, path) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(at(path)(e));
+    }
+    // The rename itself is durable only once the folder is synced.
+    let dir = match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    };
+    File::open(dir).and_then(|d| d.sync_all()).map_err(at(dir))
 }
 
 #[cfg(test)]

@@ -19,6 +19,8 @@ pub enum StoreError {
     Different { dir: PathBuf, field: String },
     #[error("{dir} holds no experiment to resume (no experiment.json)")]
     NothingToResume { dir: PathBuf },
+    #[error("{dir} holds trial records under trials/ but no experiment.json, which would say what experiment they are of; remove trials/ or choose another --out")]
+    Orphaned { dir: PathBuf },
     #[error(transparent)]
     Others(#[from] OthersResults),
     #[error(transparent)]
@@ -120,8 +122,24 @@ impl Store {
                 dir: self.dir.clone(),
             }),
             (true, true) => self.check_same(&definition, &self.expects),
+            // Records nothing says the experiment of would be taken for
+            // this one's, with whatever settings made them.
+            (false, false) if self.holds_records() => Err(StoreError::Orphaned {
+                dir: self.dir.clone(),
+            }),
             (false, false) => Ok(()),
         }
+    }
+
+    /// Whether `trials/` holds a record, or the temporary file of one.
+    fn holds_records(&self) -> bool {
+        std::fs::read_dir(self.trials_dir()).is_ok_and(|entries| {
+            entries.flatten().any(|e| {
+                let name = e.file_name();
+                let name = name.to_string_lossy();
+                name.ends_with(".json") || name.ends_with(".json.tmp")
+            })
+        })
     }
 
     /// Creates the folder, holds it, and writes the experiment's
@@ -589,6 +607,28 @@ mod tests {
         );
         assert!(!dir.join("trials/ga-00003.json.tmp").exists());
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn records_without_their_experiment_are_not_taken_for_a_new_ones() {
+        let dir = tempfile::tempdir().unwrap();
+        let dir = dir.path().join("e");
+        let exp = Experiment::default();
+        let store = Store::open(&dir, &exp, false).unwrap();
+        store.save(&record(Method::Ga, 2)).unwrap();
+        drop(store);
+        std::fs::remove_file(dir.join(EXPERIMENT)).unwrap();
+        match Store::at(&dir, &exp, false) {
+            Err(e @ StoreError::Orphaned { .. }) => {
+                assert!(e.to_string().contains("no experiment.json"), "{e}")
+            }
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("the records were taken for this experiment's"),
+        }
+        // An empty trials/ (a crash before the definition was written)
+        // holds nothing to mistake.
+        std::fs::remove_file(dir.join("trials/ga-00002.json")).unwrap();
+        assert!(Store::at(&dir, &exp, false).is_ok());
     }
 
     #[test]
