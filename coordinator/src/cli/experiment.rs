@@ -158,7 +158,9 @@ pub(super) fn in_flight(
         (0, threads) => threads,
         (workers, _) => workers,
     };
-    Ok(asked.unwrap_or(per * width))
+    // Saturating: --threads and --workers are checked for range later,
+    // as the backend starts.
+    Ok(asked.unwrap_or(per.saturating_mul(width)))
 }
 
 /// Says how busy the spawned workers were since `since`: their time on

@@ -19,6 +19,12 @@ pub const MAX_SETTINGS: usize = 10_000;
 /// million take gigabytes and as many folders.
 pub const MAX_LARGE_SETTINGS: usize = 1_000_000;
 
+/// The most trials a sweep may run in all, its settings' together,
+/// allowed more settings or not: each is planned as a task holding its
+/// configuration, about a kilobyte, before any runs, so 2 million take
+/// about 2 GB.
+pub const MAX_SWEEP_TRIALS: u64 = 2_000_000;
+
 /// The sections of the run configuration a setting may change.
 const SECTIONS: [&str; 5] = ["world", "scoring", "guided", "ga", "qlearning"];
 
@@ -162,6 +168,14 @@ impl Sweep {
         if count > MAX_LARGE_SETTINGS {
             return Err(format!(
                 "the sweep has {count} settings, more than the {MAX_LARGE_SETTINGS} any sweep may have"
+            ));
+        }
+        // A setting changes neither `trials` nor `methods`.
+        let each = base.trial_count();
+        let trials = (count as u64).saturating_mul(each);
+        if trials > MAX_SWEEP_TRIALS {
+            return Err(format!(
+                "the sweep runs {trials} trials ({count} settings of {each}: `trials` times `methods`), more than the {MAX_SWEEP_TRIALS} any sweep may run"
             ));
         }
         let full = Value::try_from(&base).map_err(|e| e.to_string())?;

@@ -278,6 +278,30 @@ fn more_than_ten_thousand_settings_need_a_flag() {
 }
 
 #[test]
+fn no_flag_allows_a_sweep_of_more_than_two_million_trials() {
+    // 10,000 settings of 3 trials of 2 methods run; of 101 trials, not.
+    let grid = |trials: u64| {
+        let values: Vec<String> = (1..=10_000).map(|v| v.to_string()).collect();
+        format!(
+            "name = \"s\"\ntrials = {trials}\nmethods = [\"ga\", \"guided\"]\n\
+             [grids.g]\n\"ga.max_generations\" = [{}]\n",
+            values.join(", ")
+        )
+    };
+    assert_eq!(
+        Sweep::parse(&grid(3), false).unwrap().settings.len(),
+        10_000
+    );
+    for allow_large in [false, true] {
+        let err = Sweep::parse(&grid(101), allow_large).expect_err("2,020,000 trials");
+        assert!(
+            err.contains("2020000 trials") && err.contains("`trials` times `methods`"),
+            "{err}"
+        );
+    }
+}
+
+#[test]
 fn no_flag_allows_a_grid_past_a_million_settings() {
     let hundred = (1..=100)
         .map(|v| v.to_string())
