@@ -27,6 +27,19 @@ fn parents(cfg: &RunConfig) -> Vec<(Vec<Genome>, Vec<f64>)> {
         .collect()
 }
 
+/// A guided batch of `genomes` under `cfg` and `key`, flown as they are
+/// unless given what breeds them.
+fn guided<'a>(cfg: &RunConfig, key: StreamKey, genomes: &'a mut Vec<Genome>) -> Batch<'a> {
+    Batch::new(
+        cfg.env(0),
+        Pass::Guide,
+        cfg.guided,
+        key,
+        cfg.ga.max_duration,
+        genomes,
+    )
+}
+
 /// Flies one step of `TRIALS` batches still to be bred on `evaluator`.
 fn step(evaluator: &mut dyn Evaluator) -> (Vec<Vec<Evaluation>>, Vec<Vec<Genome>>) {
     step_of(evaluator, TRIALS as usize)
@@ -47,15 +60,7 @@ fn step_of(
         .map(|((t, (parents, fitness)), genomes)| {
             let key = StreamKey::new(9, t, 0, 2);
             let bred = offspring(&cfg.ga, parents, fitness, key);
-            Batch::new(
-                cfg.env(0),
-                Pass::Guide,
-                cfg.guided,
-                key,
-                cfg.ga.max_duration,
-                genomes,
-            )
-            .breeding(Some(bred))
+            guided(&cfg, key, genomes).breeding(Some(bred))
         })
         .collect();
     let evaluations = evaluator.evaluate_many(batches).unwrap();
@@ -293,15 +298,8 @@ fn a_step_stopped_midway_leaves_its_genomes_as_bred() {
         .push(super::fake::Recorder::holding(1, Vec::new()));
     pool.transport.stops = Some(pool.opts.stop.clone());
     let mut genomes = Vec::new();
-    let batch = Batch::new(
-        cfg.env(0),
-        Pass::Guide,
-        cfg.guided,
-        key,
-        cfg.ga.max_duration,
-        &mut genomes,
-    )
-    .breeding(Some(offspring(&cfg.ga, parents, fitness, key)));
+    let batch =
+        guided(&cfg, key, &mut genomes).breeding(Some(offspring(&cfg.ga, parents, fitness, key)));
     assert!(matches!(
         pool.evaluate_many(vec![batch]),
         Err(EvalError::Interrupted)
@@ -310,14 +308,7 @@ fn a_step_stopped_midway_leaves_its_genomes_as_bred() {
     // The answer taken had rewritten its genomes' actions...
     let mut flown = bred.clone();
     let mut evaluator = InProcess::new(1).unwrap();
-    let batch = Batch::new(
-        cfg.env(0),
-        Pass::Guide,
-        cfg.guided,
-        key,
-        cfg.ga.max_duration,
-        &mut flown,
-    );
+    let batch = guided(&cfg, key, &mut flown);
     evaluator.evaluate_many(vec![batch]).unwrap();
     assert_ne!(flown, bred, "the guided pass changes some actions");
     // ...and they are back as bred: a trial saved now resumes as it
@@ -332,15 +323,8 @@ fn a_batch_read_in_part_before_it_flies_flies_as_one_bred_whole_on_any_thread_co
     let key = StreamKey::new(9, 0, 0, 2);
     let fly = |threads: usize, read: usize| {
         let mut genomes = Vec::new();
-        let mut batch = Batch::new(
-            cfg.env(0),
-            Pass::Guide,
-            cfg.guided,
-            key,
-            cfg.ga.max_duration,
-            &mut genomes,
-        )
-        .breeding(Some(offspring(&cfg.ga, parents, fitness, key)));
+        let mut batch = guided(&cfg, key, &mut genomes)
+            .breeding(Some(offspring(&cfg.ga, parents, fitness, key)));
         batch.bred_up_to(read);
         let evaluations = InProcess::new(threads)
             .unwrap()
