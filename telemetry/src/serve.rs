@@ -7,8 +7,10 @@
 //! metrics tell anyone who can reach the port how the run goes.
 
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, ToSocketAddrs};
+use std::sync::mpsc::{channel, Receiver};
 use std::sync::Arc;
 use std::thread::JoinHandle;
+use std::time::Duration;
 
 /// Why the endpoint could not start.
 #[derive(Debug, thiserror::Error)]
@@ -22,10 +24,18 @@ pub enum ServeError {
 /// The content type of the text exposition format.
 const TEXT_FORMAT: &str = "text/plain; version=0.0.4; charset=utf-8";
 
+/// How long dropping the endpoint waits for its thread, which may be held
+/// by a client that announced a body it does not send (tiny_http reads a
+/// request's body to its end before it takes the next, with no timeout):
+/// the command ends regardless.
+const STOP_WAIT: Duration = Duration::from_secs(1);
+
 /// The running endpoint; dropping it stops it.
 pub struct MetricsServer {
     server: Arc<tiny_http::Server>,
     thread: Option<JoinHandle<()>>,
+    /// Told when the thread ends.
+    stopped: Receiver<()>,
     addr: SocketAddr,
 }
 
@@ -74,12 +84,14 @@ impl MetricsServer {
         }
         let server = Arc::new(server);
         let serving = server.clone();
+        let (stop, stopped) = channel();
         let thread = std::thread::Builder::new()
             .name("metrics".into())
             .spawn(move || {
                 for request in serving.incoming_requests() {
                     answer(request, &encode);
                 }
+                let _ = stop.send(());
             })
             .map_err(|e| ServeError::Bind {
                 addr,
@@ -89,6 +101,7 @@ impl MetricsServer {
         Ok(MetricsServer {
             server,
             thread: Some(thread),
+            stopped,
             addr,
         })
     }
@@ -120,10 +133,16 @@ fn answer(request: tiny_http::Request, encode: &dyn Fn() -> Vec<u8>) {
 }
 
 impl Drop for MetricsServer {
+    /// Stops the endpoint, waiting for its thread at most [`STOP_WAIT`];
+    /// a thread still held by a client is left to end with the process.
     fn drop(&mut self) {
         self.server.unblock();
         if let Some(thread) = self.thread.take() {
-            let _ = thread.join();
+            if self.stopped.recv_timeout(STOP_WAIT).is_ok() {
+                let _ = thread.join();
+            } else {
+                tracing::warn!("a metrics client holds the endpoint; left to end with the process");
+            }
         }
     }
 }
@@ -172,6 +191,32 @@ mod tests {
             e.to_string().starts_with("--metrics `no such:host:9`"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_client_that_holds_back_its_body_does_not_keep_the_endpoint_from_stopping() {
+        let server = MetricsServer::start("127.0.0.1:0", Vec::new).unwrap();
+        let mut client = TcpStream::connect(server.addr()).unwrap();
+        write!(
+            client,
+            "POST /metrics HTTP/1.1\r\nHost: x\r\nContent-Length: 5000\r\n\r\n"
+        )
+        .unwrap();
+        // Time for the endpoint's thread to take the request and wait on
+        // its body.
+        std::thread::sleep(Duration::from_millis(300));
+        // Dropped on another thread, so that a drop that never returns
+        // fails the test rather than hanging it.
+        let (done, dropped) = channel();
+        std::thread::spawn(move || {
+            drop(server);
+            let _ = done.send(());
+        });
+        assert!(
+            dropped.recv_timeout(Duration::from_secs(30)).is_ok(),
+            "dropping the endpoint waits on the client"
+        );
+        drop(client);
     }
 
     #[test]
