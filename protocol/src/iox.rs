@@ -120,15 +120,14 @@ pub fn config() -> Result<Config, IpcError> {
     config.global.node.cleanup_dead_nodes_on_creation = false;
     config.global.node.cleanup_dead_nodes_on_destruction = false;
     config.global.service.cleanup_dead_nodes_on_open = false;
-    let prefix = var(PREFIX_ENV, DEFAULT_PREFIX)?;
+    let prefix = var(PREFIX_ENV)?.unwrap_or_else(|| DEFAULT_PREFIX.into());
     config.global.prefix =
         FileName::new(prefix.as_bytes()).map_err(fail(format!("{PREFIX_ENV}={prefix}")))?;
-    let root = match std::env::var(ROOT_ENV) {
-        Err(std::env::VarError::NotPresent) => std::path::Path::new("/dev/shm")
+    let root = var(ROOT_ENV)?.or_else(|| {
+        std::path::Path::new("/dev/shm")
             .is_dir()
-            .then(|| DEFAULT_ROOT.to_string()),
-        _ => Some(var(ROOT_ENV, DEFAULT_ROOT)?),
-    };
+            .then(|| DEFAULT_ROOT.to_string())
+    });
     if let Some(root) = root {
         let path = Path::new(root.as_bytes()).map_err(fail(format!("{ROOT_ENV}={root}")))?;
         check_root(&root)?;
@@ -137,13 +136,13 @@ pub fn config() -> Result<Config, IpcError> {
     Ok(config)
 }
 
-/// The environment variable `name`, or `default` where it is not set; one
-/// set to bytes that are not UTF-8 is an error naming it, where falling
-/// back to the default would share another run's files unasked.
-fn var(name: &str, default: &str) -> Result<String, IpcError> {
+/// The environment variable `name`, `None` where it is not set; one set
+/// to bytes that are not UTF-8 is an error naming it, where taking it for
+/// unset would share another run's files unasked.
+fn var(name: &str) -> Result<Option<String>, IpcError> {
     match std::env::var(name) {
-        Ok(value) => Ok(value),
-        Err(std::env::VarError::NotPresent) => Ok(default.to_string()),
+        Ok(value) => Ok(Some(value)),
+        Err(std::env::VarError::NotPresent) => Ok(None),
         Err(std::env::VarError::NotUnicode(value)) => Err(IpcError {
             what: name.to_string(),
             detail: format!("{value:?} is not UTF-8"),
