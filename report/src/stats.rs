@@ -53,9 +53,10 @@ pub fn quartiles(xs: &[f64]) -> Option<Quartiles> {
 /// the common definitions it is the one readers are most likely to check our
 /// numbers against.
 ///
-/// `None` if the sample is empty, `p` is outside `[0, 1]`, or the sample is
-/// not ascending (a NaN counts as out of order): a quantile of unsorted data
-/// would be silently wrong, and the check costs one pass.
+/// `None` if the sample is empty, `p` is outside `[0, 1]`, the sample is
+/// not ascending (a NaN counts as out of order: a quantile of unsorted data
+/// would be silently wrong, and the check costs one pass), or the quantile
+/// falls strictly between −∞ and +∞.
 pub fn quantile(sorted: &[f64], p: f64) -> Option<f64> {
     if sorted.is_empty() || !(0.0..=1.0).contains(&p) || !sorted.is_sorted_by(|x, y| x <= y) {
         return None;
@@ -66,9 +67,19 @@ pub fn quantile(sorted: &[f64], p: f64) -> Option<f64> {
     let low = *sorted.get(below)?;
     match sorted.get(below + 1) {
         // `high == low` also keeps two equal infinities from giving NaN.
-        Some(&high) if fraction > 0.0 && high != low => Some(low + fraction * (high - low)),
+        Some(&high) if fraction > 0.0 && high != low => between(low, high, fraction),
         _ => Some(low),
     }
+}
+
+/// The point `fraction` of the way from `low` to `high` (`low < high`).
+/// From −∞ to a finite neighbour it is −∞, where `low + fraction·(high −
+/// low)` would be −∞ + ∞; from −∞ to +∞ there is none.
+fn between(low: f64, high: f64, fraction: f64) -> Option<f64> {
+    if low == f64::NEG_INFINITY {
+        return (high != f64::INFINITY).then_some(low);
+    }
+    Some(low + fraction * (high - low))
 }
 
 /// A copy of the sample in ascending order, `None` if it is empty or holds a
@@ -424,6 +435,12 @@ mod tests {
             quantile(&[f64::INFINITY, f64::INFINITY], 0.5),
             Some(f64::INFINITY)
         );
+        // An infinity and a finite neighbour: the infinity, at any fraction.
+        assert_eq!(
+            quantile(&[f64::NEG_INFINITY, 1.0], 0.25),
+            Some(f64::NEG_INFINITY)
+        );
+        assert_eq!(quantile(&[1.0, f64::INFINITY], 0.5), Some(f64::INFINITY));
     }
 
     #[test]
@@ -434,6 +451,12 @@ mod tests {
         assert_eq!(quantile(&[1.0, 2.0], f64::NAN), None);
         assert_eq!(quantile(&[2.0, 1.0], 0.5), None);
         assert_eq!(quantile(&[1.0, f64::NAN], 0.5), None);
+        // Strictly between −∞ and +∞ is no number.
+        assert_eq!(quantile(&[f64::NEG_INFINITY, f64::INFINITY], 0.5), None);
+        assert_eq!(
+            quantile(&[f64::NEG_INFINITY, f64::INFINITY], 0.0),
+            Some(f64::NEG_INFINITY)
+        );
     }
 
     #[test]
