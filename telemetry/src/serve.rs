@@ -7,6 +7,7 @@
 //! metrics tell anyone who can reach the port how the run goes.
 
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, ToSocketAddrs};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{channel, Receiver};
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -26,9 +27,14 @@ const TEXT_FORMAT: &str = "text/plain; version=0.0.4; charset=utf-8";
 
 /// How long dropping the endpoint waits for its thread, which may be held
 /// by a client that announced a body it does not send (tiny_http reads a
-/// request's body to its end before it takes the next, with no timeout):
-/// the command ends regardless.
+/// request's body to its end as it answers, with no timeout): the command
+/// ends regardless.
 const STOP_WAIT: Duration = Duration::from_secs(1);
+
+/// The most requests answered at once, each on a thread of its own, so
+/// that a client holding back its body holds up only its own answer. Past
+/// this many, the endpoint's thread answers the next itself.
+const MOST_ANSWERING: usize = 8;
 
 /// The running endpoint; dropping it stops it.
 pub struct MetricsServer {
@@ -63,7 +69,7 @@ impl MetricsServer {
     /// Listens on `given` and serves `encode()`'s text at `/metrics`.
     pub fn start(
         given: &str,
-        encode: impl Fn() -> Vec<u8> + Send + 'static,
+        encode: impl Fn() -> Vec<u8> + Send + Sync + 'static,
     ) -> Result<MetricsServer, ServeError> {
         let wanted = parse_addr(given)?;
         let server = tiny_http::Server::http(wanted).map_err(|e| ServeError::Bind {
@@ -85,11 +91,13 @@ impl MetricsServer {
         let server = Arc::new(server);
         let serving = server.clone();
         let (stop, stopped) = channel();
+        let encode: Encode = Arc::new(encode);
         let thread = std::thread::Builder::new()
             .name("metrics".into())
             .spawn(move || {
+                let answering = Arc::new(AtomicUsize::new(0));
                 for request in serving.incoming_requests() {
-                    answer(request, &encode);
+                    answer_apart(request, &encode, &answering);
                 }
                 let _ = stop.send(());
             })
@@ -109,6 +117,39 @@ impl MetricsServer {
     /// Where it listens (the port chosen, for a requested port 0).
     pub fn addr(&self) -> SocketAddr {
         self.addr
+    }
+}
+
+/// What the endpoint serves at `/metrics`, shared with the answering threads.
+type Encode = Arc<dyn Fn() -> Vec<u8> + Send + Sync>;
+
+/// Answers `request` on a thread of its own, or here if [`MOST_ANSWERING`]
+/// are busy or no thread can be made.
+fn answer_apart(request: tiny_http::Request, encode: &Encode, answering: &Arc<AtomicUsize>) {
+    if answering.fetch_add(1, Ordering::AcqRel) >= MOST_ANSWERING {
+        answering.fetch_sub(1, Ordering::AcqRel);
+        return answer(request, encode.as_ref());
+    }
+    // The request goes to the thread once it has started; if it cannot
+    // start, the request is answered here.
+    let (give, take) = std::sync::mpsc::sync_channel(1);
+    let (shared, busy) = (encode.clone(), answering.clone());
+    let started = std::thread::Builder::new()
+        .name("metrics-answer".into())
+        .spawn(move || {
+            if let Ok(request) = take.recv() {
+                answer(request, shared.as_ref());
+            }
+            busy.fetch_sub(1, Ordering::AcqRel);
+        });
+    match started {
+        Ok(_) => {
+            let _ = give.send(request);
+        }
+        Err(_) => {
+            answering.fetch_sub(1, Ordering::AcqRel);
+            answer(request, encode.as_ref());
+        }
     }
 }
 
@@ -217,6 +258,35 @@ mod tests {
             "dropping the endpoint waits on the client"
         );
         drop(client);
+    }
+
+    #[test]
+    fn a_client_that_holds_back_its_body_holds_up_no_other_scrape() {
+        let server = MetricsServer::start("127.0.0.1:0", || b"up 1\n".to_vec()).unwrap();
+        let addr = server.addr();
+        let mut holders = Vec::new();
+        for _ in 0..3 {
+            let mut client = TcpStream::connect(addr).unwrap();
+            write!(
+                client,
+                "POST /metrics HTTP/1.1\r\nHost: x\r\nContent-Length: 5000\r\n\r\n"
+            )
+            .unwrap();
+            holders.push(client);
+        }
+        std::thread::sleep(Duration::from_millis(300));
+        // Scraped on another thread, so that a scrape never answered fails
+        // the test rather than hanging it.
+        let (done, scraped) = channel();
+        std::thread::spawn(move || {
+            let _ = done.send(get(addr, "/metrics"));
+        });
+        let got = scraped.recv_timeout(Duration::from_secs(30));
+        assert!(
+            got.as_ref().is_ok_and(|g| g.ends_with("up 1\n")),
+            "a scrape behind clients holding back their bodies: {got:?}"
+        );
+        drop(holders);
     }
 
     #[test]
