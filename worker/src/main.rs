@@ -55,7 +55,7 @@ struct Args {
     /// This worker's id, in hex [default: random].
     #[arg(long, value_name = "HEX", value_parser = parse_hex)]
     id: Option<u64>,
-    /// Print errors only.
+    /// Print warnings and errors only.
     #[arg(long)]
     quiet: bool,
     /// Run on this CPU only (`lander run --workers N` pins its workers to
