@@ -55,7 +55,6 @@ fn look(link: &mut impl WorkerLink) -> Polled {
     let (answers, refused) = link.poll();
     Polled {
         id: link.id(),
-        pid: link.pid(),
         answers,
         refused,
     }
@@ -141,7 +140,7 @@ impl<T: Transport> Pool<T> {
             }
             self.accept()?;
             self.reap(&mut progress.todo)?;
-            let fresh = self.collect(&mut progress);
+            let (fresh, refused) = self.collect(&mut progress);
             let todo = &mut progress.todo;
             self.drop_refused(todo);
             // A killed worker's connection closes as its process exits, a
@@ -161,7 +160,7 @@ impl<T: Transport> Pool<T> {
             self.drop_links(todo, |l| l.is_broken(), Cause::Disconnected);
             // Workers refused in this pass: their remaining answers are
             // not read.
-            let mut distrusted = Vec::new();
+            let mut distrusted = refused;
             // A worker that ran dry gets more before anything is decoded:
             // decoding can wait, an idle worker should not.
             progress.drop_answered();
@@ -319,21 +318,23 @@ impl<T: Transport> Pool<T> {
     /// The answers that arrived, each with the worker that gave it, to
     /// chunks not answered before (a chunk run twice keeps its first
     /// answer); checked, not yet decoded. A worker whose answer failed its
-    /// checks is refused now.
-    fn collect<R>(&mut self, progress: &mut Progress<R>) -> Vec<(u64, Answer)> {
+    /// link's checks (its job, its envelope, an error in its place) is
+    /// refused now, as one whose answer does not decode is: the second
+    /// list holds those workers, none of whose answers may be believed.
+    fn collect<R>(&mut self, progress: &mut Progress<R>) -> (Vec<(u64, Answer)>, Vec<u64>) {
         let mut fresh = Vec::new();
+        let mut refused_now = Vec::new();
         let mut polled = std::mem::take(&mut self.arrived);
         polled.extend(self.links.iter_mut().map(look));
         for Polled {
             id,
-            pid,
             answers,
             refused,
         } in polled
         {
             if let Some(e) = refused {
-                let who = self.worker_ref(id, pid);
-                self.refuse(id, who, format!("a result: {e}"));
+                self.refuse_worker(progress, id, format!("a result: {e}"), false);
+                refused_now.push(id);
             }
             for a in answers {
                 self.busy.workers += a.timing.compute();
@@ -348,7 +349,7 @@ impl<T: Transport> Pool<T> {
                 }
             }
         }
-        fresh
+        (fresh, refused_now)
     }
 
     /// Refuses worker `id` for good, saying why; its link is dropped by

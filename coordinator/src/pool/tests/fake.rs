@@ -13,7 +13,8 @@ use std::time::{Duration, Instant};
 
 /// Records what it is sent; with an `answer`, answers every chunk with it
 /// at the next poll, or, if it `fails_checks`, all but the last, whose
-/// answer fails the link's own checks and breaks it. One that `flies`
+/// answer fails the link's own checks and breaks it (from the look after
+/// its first `clean_looks`, which answer as if it did not). One that `flies`
 /// evaluates or trains each chunk as a worker does, and answers with the
 /// result. One with `looks_per_answer` n above 0 is slow: it answers one
 /// chunk at every n-th look, none at the others. One that `spoils` a
@@ -29,6 +30,7 @@ pub struct Recorder {
     /// The answers of a link that flies, by chunk.
     pub flown: HashMap<usize, Vec<u8>>,
     pub fails_checks: bool,
+    pub clean_looks: usize,
     pub broken: bool,
     /// Sends that succeed before every send fails, as to a worker killed
     /// (`None`: every send succeeds).
@@ -53,6 +55,7 @@ impl Recorder {
             flies: false,
             flown: HashMap::new(),
             fails_checks: false,
+            clean_looks: 0,
             broken: false,
             sends_left: None,
             looks_per_answer: 0,
@@ -134,7 +137,8 @@ impl WorkerLink for Recorder {
             finished_ns: 0,
         };
         self.looks += 1;
-        let keep = usize::from(self.fails_checks && !self.chunks.is_empty());
+        let fails = self.fails_checks && self.looks > self.clean_looks;
+        let keep = usize::from(fails && !self.chunks.is_empty());
         let mut good = self.chunks.len() - keep;
         if self.looks_per_answer > 0 {
             good = good.min(usize::from(
