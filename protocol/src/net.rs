@@ -5,6 +5,7 @@
 //! is told of; shared memory is not compiled in, so queries never take
 //! zenoh's shared-memory path.
 
+use crate::envelope::MAX_FRAME;
 use std::path::{Path, PathBuf};
 use zenoh::Config;
 
@@ -76,6 +77,7 @@ fn base(options: &NetOptions, mode: &str) -> Result<Config, NetError> {
     // Both ends notice a silent peer (a cut cable, a frozen host) within
     // the lease; a killed process is noticed at once by its closed socket.
     set(&mut cfg, "transport/link/tx/lease", "3000")?;
+    limit_messages(&mut cfg)?;
     if !options.listen.is_empty() {
         set(&mut cfg, "listen/endpoints", &json(&options.listen))?;
     }
@@ -83,6 +85,28 @@ fn base(options: &NetOptions, mode: &str) -> Result<Config, NetError> {
         set(&mut cfg, "connect/endpoints", &json(&options.connect))?;
     }
     Ok(cfg)
+}
+
+/// zenoh's key for the largest message a session puts together from
+/// fragments.
+const MAX_MESSAGE_KEY: &str = "transport/link/rx/max_message_size";
+
+/// The largest message a session takes: a frame ([`MAX_FRAME`]) and room
+/// for zenoh's own headers.
+pub const MAX_MESSAGE: usize = MAX_FRAME + (1 << 20);
+
+/// Caps the messages a session puts together at [`MAX_MESSAGE`] (zenoh's
+/// own default is 1 GiB, held in memory before any frame check could
+/// refuse it), or keeps a file's lower cap.
+fn limit_messages(cfg: &mut Config) -> Result<(), NetError> {
+    let given = cfg
+        .get_json(MAX_MESSAGE_KEY)
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok());
+    if given.is_none_or(|g| g > MAX_MESSAGE) {
+        set(cfg, MAX_MESSAGE_KEY, &MAX_MESSAGE.to_string())?;
+    }
+    Ok(())
 }
 
 /// A zenoh configuration file for a session of `mode`; one that names
@@ -482,6 +506,36 @@ mod tests {
         let cfg = router_config(&any).unwrap();
         assert_eq!(cfg.get_json("mode").unwrap(), r#""router""#);
         coordinator_config(&any).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn messages_are_capped_at_a_frame_or_a_files_lower_cap() {
+        let cap = |cfg: &Config| cfg.get_json(MAX_MESSAGE_KEY).unwrap();
+        let default = NetOptions::default();
+        for cfg in [
+            coordinator_config(&default).unwrap(),
+            worker_config(&default).unwrap(),
+            router_config(&default).unwrap(),
+        ] {
+            assert_eq!(cap(&cfg), MAX_MESSAGE.to_string());
+        }
+        let dir = std::env::temp_dir().join(format!("lander-cap-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = |name: &str, size: usize| {
+            let path = dir.join(name);
+            let text =
+                format!("{{ transport: {{ link: {{ rx: {{ max_message_size: {size} }} }} }} }}");
+            std::fs::write(&path, text).unwrap();
+            NetOptions {
+                config_file: Some(path),
+                ..NetOptions::default()
+            }
+        };
+        let higher = worker_config(&file("higher.json5", 1 << 30)).unwrap();
+        assert_eq!(cap(&higher), MAX_MESSAGE.to_string());
+        let lower = worker_config(&file("lower.json5", 1 << 20)).unwrap();
+        assert_eq!(cap(&lower), (1usize << 20).to_string());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

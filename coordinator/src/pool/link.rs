@@ -149,6 +149,24 @@ impl Due {
     }
 }
 
+/// The most bytes of a worker's own words (a refusal, an error reply) that
+/// the pool passes on to its log and events.
+const MOST_WORDS: usize = 512;
+
+/// A worker's own words, as text, cut to [`MOST_WORDS`] bytes: what it
+/// says travels into the log and `events.jsonl`, and a frame may be
+/// 128 MiB.
+pub(super) fn words_of(said: &[u8]) -> String {
+    if said.len() <= MOST_WORDS {
+        return String::from_utf8_lossy(said).into_owned();
+    }
+    format!(
+        "{}… ({} bytes in all)",
+        String::from_utf8_lossy(&said[..MOST_WORDS]),
+        said.len()
+    )
+}
+
 /// Checks a response against the job it answers and returns its body.
 pub(super) fn check(job_id: u64, h: &ResultHeader, body: &[u8]) -> Result<Vec<u8>, String> {
     if h.version != PROTOCOL_VERSION {
@@ -164,7 +182,7 @@ pub(super) fn check(job_id: u64, h: &ResultHeader, body: &[u8]) -> Result<Vec<u8
         Some(Status::Done) => Ok(body.to_vec()),
         Some(status) => Err(format!(
             "the worker refused the job ({status:?}): {}",
-            String::from_utf8_lossy(body)
+            words_of(body)
         )),
         None => Err(format!("unknown status {}", h.status)),
     }
@@ -172,7 +190,17 @@ pub(super) fn check(job_id: u64, h: &ResultHeader, body: &[u8]) -> Result<Vec<u8
 
 #[cfg(test)]
 mod tests {
-    use super::Due;
+    use super::{words_of, Due, MOST_WORDS};
+
+    #[test]
+    fn a_workers_words_are_cut_to_a_bound() {
+        assert_eq!(words_of(b"no room"), "no room");
+        let long = vec![b'x'; 10 * MOST_WORDS];
+        let said = words_of(&long);
+        assert!(said.starts_with(&"x".repeat(MOST_WORDS)), "{said}");
+        assert!(said.ends_with(&format!("… ({} bytes in all)", 10 * MOST_WORDS)));
+        assert!(said.len() < MOST_WORDS + 40, "{}", said.len());
+    }
     use std::time::{Duration, Instant};
 
     #[test]

@@ -5,7 +5,7 @@
 //! worker's own key; its reply is the result. Every callback only forwards
 //! into a channel the pool sleeps on, so zenoh's threads never block.
 
-use super::link::{check, Due};
+use super::link::{check, words_of, Due};
 use super::{Answer, Arrival, ChunkTiming, Transport, WorkerLink, DEPTH};
 use crate::evaluator::EvalError;
 use lander_protocol::envelope::{decode_result, encode_job};
@@ -280,9 +280,7 @@ impl WorkerLink for Link {
                 callback: move |reply: Reply| {
                     let answer = match reply.into_result() {
                         Ok(sample) => Ok(sample.payload().to_bytes().into_owned()),
-                        Err(e) => {
-                            Err(String::from_utf8_lossy(&e.payload().to_bytes()).into_owned())
-                        }
+                        Err(e) => Err(words_of(&e.payload().to_bytes())),
                     };
                     if let Ok(mut s) = on_reply.lock() {
                         s.reply.get_or_insert(answer);
