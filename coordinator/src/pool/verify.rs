@@ -150,11 +150,19 @@ impl<T: Transport> Pool<T> {
         let Some(held) = progress.release(c) else {
             return Verdict::nothing();
         };
-        if (check.differs)(c, &held.value, &value).is_none() {
+        let agree = (check.differs)(c, &held.value, &value).is_none();
+        // Two workers neither of which has an answer taken agreeing prove
+        // nothing of a build they may share: the chunk flown here decides.
+        let vouched = self.vetted.contains(&held.by) || self.vetted.contains(&checker);
+        if agree && vouched {
             self.vetted.insert(checker);
             return Verdict::take(held.value, held.by);
         }
-        self.decide(check, c, held, Some((value, checker)))
+        let verdict = self.decide(check, c, held, Some((value, checker)));
+        if !verdict.refusals.iter().any(|(w, _)| *w == checker) {
+            self.vetted.insert(checker);
+        }
+        verdict
     }
 
     /// Flies chunk `c` here and judges the `held` answer, and the

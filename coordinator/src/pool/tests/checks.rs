@@ -3,6 +3,7 @@
 //! the two agree, and judged by the chunk flown here where they do not.
 
 use super::fake::{self, answering, assert_refused_alone, pool, recorded, Nowhere};
+use crate::pool::verify::Check;
 use crate::pool::Pool;
 use lander_telemetry::Telemetry;
 
@@ -26,7 +27,12 @@ fn a_checked_answer_is_flown_again_on_another_worker_and_taken_where_they_agree(
     let mut pool = workers(&[(7, 0), (8, 0)], telemetry.clone());
     let (results, here) = run_all_checked(&mut pool);
     assert_eq!(results, [0, 10, 20, 30, 40, 50]);
-    assert_eq!(here, 0, "two workers that agree need nothing flown here");
+    // Their first answers, checked by each other, are checked here too:
+    // two workers that agree before either was vetted may share a build.
+    assert_eq!(
+        here, 1,
+        "two vetted workers that agree need nothing flown here"
+    );
     // Each chunk flown by one worker, and its check (sent as CHUNKS + c)
     // by the other.
     for c in 0..CHUNKS {
@@ -78,6 +84,36 @@ fn two_wrong_workers_that_disagree_are_both_refused() {
     let mut pool = workers(&[(7, 1), (9, 2), (8, 0)], telemetry);
     let (results, _) = run_all_checked(&mut pool);
     assert_eq!(results, [0, 10, 20, 30, 40, 50]);
+    let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
+    assert_eq!(ids, [8]);
+    let events = lander_telemetry::events::read(dir.path()).unwrap();
+    let refused = events
+        .iter()
+        .filter(|e| e["event"] == "worker_refused")
+        .count();
+    assert_eq!(refused, 2, "{events:?}");
+}
+
+/// Two workers of one wrong build, each checking the other's first
+/// answer before either has had one taken, beside a slow honest one; only
+/// first answers are checked.
+#[test]
+fn two_workers_of_one_wrong_build_that_agree_are_both_refused() {
+    let (dir, telemetry) = recorded();
+    let mut links = answering(&[(7, 1), (9, 1), (8, 0)]);
+    links[2].looks_per_answer = 8;
+    let mut pool = pool(links, telemetry);
+    let check = Check {
+        due: &|_, first| first,
+        here: &|c| Ok(10 * c),
+        differs: &|c, a: &usize, b: &usize| (a != b).then(|| format!("its answer to chunk {c}")),
+        shares: false,
+    };
+    let decode = |c: usize, body: &[u8]| Ok(10 * c + usize::from(body[0]));
+    let results = pool
+        .run_checked(&fake::no_chunks(12), decode, &check, |_, _| {})
+        .unwrap();
+    assert_eq!(results, (0..12).map(|c| 10 * c).collect::<Vec<_>>());
     let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
     assert_eq!(ids, [8]);
     let events = lander_telemetry::events::read(dir.path()).unwrap();
