@@ -245,6 +245,8 @@ mod tests {
             ("[ga]\nmutation_rate = nan", "ga.mutation_rate"),
             ("[ga]\nmax_duration = 0", "ga.max_duration"),
             ("[ga]\nelites = 101", "ga.elites"),
+            // As many elites as genomes: nothing would ever be bred.
+            ("[ga]\nelites = 100", "ga.elites"),
             ("[world]\nwidth = nan", "world.width"),
             ("[world]\nheight = inf", "world.height"),
             ("[guided]\nepsilon = 2.0", "guided.epsilon"),

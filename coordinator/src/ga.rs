@@ -111,11 +111,13 @@ impl GaParams {
         probability("ga.crossover_rate", self.crossover_rate)?;
         probability("ga.mutation_rate", self.mutation_rate)?;
         non_negative("ga.duration_mutation_span", self.duration_mutation_span)?;
+        // Elites are copied unchanged: a population of elites alone would
+        // fly the same genomes every generation, breeding nothing.
         check(
             "ga.elites",
-            self.elites <= self.population,
+            self.elites < self.population,
             format_args!(
-                "must not exceed ga.population ({} > {})",
+                "must be fewer than ga.population (--population), or no child is bred: {} elites in a population of {}",
                 self.elites, self.population
             ),
         )?;
