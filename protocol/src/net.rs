@@ -261,13 +261,23 @@ pub fn credentials(path: &Path) -> Result<(String, String), NetError> {
 /// The endpoints `cfg` listens on (its own mode's, where they differ by
 /// mode), as written: `tcp/0.0.0.0:7447`.
 pub fn listening(cfg: &Config) -> Vec<String> {
+    endpoints(cfg, "listen/endpoints")
+}
+
+/// The endpoints `cfg` connects to, for its own mode where the file gives
+/// them by mode.
+pub fn connecting(cfg: &Config) -> Vec<String> {
+    endpoints(cfg, "connect/endpoints")
+}
+
+fn endpoints(cfg: &Config, key: &str) -> Vec<String> {
     let read = |key: &str| -> serde_json::Value {
         cfg.get_json(key)
             .ok()
             .and_then(|j| serde_json::from_str(&j).ok())
             .unwrap_or_default()
     };
-    let endpoints = match read("listen/endpoints") {
+    let endpoints = match read(key) {
         serde_json::Value::Object(by_mode) => read("mode")
             .as_str()
             .and_then(|mode| by_mode.get(mode).cloned())
@@ -318,6 +328,16 @@ fn loopback(endpoint: &str) -> bool {
     let address = address.split_once('#').map_or(address, |(a, _)| a);
     let host = address.rsplit_once(':').map_or(address, |(h, _)| h);
     host.starts_with("127.") || host == "localhost" || host == "[::1]"
+}
+
+/// Whether `endpoint` asks for any free port (`tcp/127.0.0.1:0`): the
+/// port chosen is not one a worker told this endpoint could reach.
+pub fn any_port(endpoint: &str) -> bool {
+    let address = endpoint.split_once('/').map_or(endpoint, |(_, a)| a);
+    let address = address.split(['#', '?']).next().unwrap_or(address);
+    address
+        .rsplit_once(':')
+        .is_some_and(|(_, port)| port == "0")
 }
 
 /// The key expressions of one run.
@@ -507,6 +527,15 @@ mod tests {
         assert_eq!(cfg.get_json("mode").unwrap(), r#""router""#);
         coordinator_config(&any).unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn an_endpoint_on_any_port_is_told_apart() {
+        assert!(any_port("tcp/127.0.0.1:0"));
+        assert!(any_port("tcp/[::1]:0#iface=lo"));
+        assert!(!any_port("tcp/127.0.0.1:7447"));
+        assert!(!any_port("tcp/127.0.0.1:70"));
+        assert!(!any_port("tls/example.org:7447?x=0"));
     }
 
     #[test]

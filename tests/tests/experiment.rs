@@ -359,6 +359,17 @@ fn bad_experiment_files_are_named() {
     // Refused before the folder is written: the corrected command would
     // otherwise find an experiment it was not asked to resume.
     assert!(!dir.path().join("never").exists());
+    let both = run_experiment(
+        &file,
+        &dir.path().join("never"),
+        &["--threads", "2", "--attach"],
+    );
+    assert!(
+        stderr(&both).contains("--threads is for in-process"),
+        "{}",
+        stderr(&both)
+    );
+    assert!(!dir.path().join("never").exists());
     // A run's or a sweep's folder is refused, its files left as they were.
     for marker in ["best.json", "sweep.json"] {
         let theirs = dir.path().join(marker);

@@ -666,6 +666,18 @@ fn bad_worker_options_are_refused() {
             "--listen is for",
         ),
         (
+            vec![
+                "run",
+                "--workers",
+                "1",
+                "--transport",
+                "zenoh",
+                "--listen",
+                "tcp/127.0.0.1:0",
+            ],
+            "tcp/127.0.0.1:0 (--listen or --zenoh-config): port 0 leaves the workers",
+        ),
+        (
             vec!["bench", "--stress", "--kill-rate", "1e308"],
             "--kill-rate must be 0 to 100",
         ),
@@ -677,6 +689,42 @@ fn bad_worker_options_are_refused() {
         (
             vec!["bench", "--soak", "5"],
             "--soak applies only to --stress",
+        ),
+        (
+            vec!["bench", "--transports", "inproc", "--verify", "0.5"],
+            "--verify applies only to the worker-process modes",
+        ),
+        (
+            vec![
+                "bench",
+                "--transports",
+                "inproc",
+                "--chunks-per-worker",
+                "7",
+            ],
+            "--chunks-per-worker applies only to the worker-process modes",
+        ),
+        (
+            vec![
+                "bench",
+                "--transports",
+                "inproc",
+                "--coordinator-share",
+                "never",
+            ],
+            "--coordinator-share applies only",
+        ),
+        (
+            vec!["bench", "--transports", "inproc", "--no-pin"],
+            "--no-pin applies only",
+        ),
+        (
+            vec!["bench", "--transports", "inproc,iceoryx2", "--listen", "x"],
+            "--listen applies only to --transports zenoh",
+        ),
+        (
+            vec!["bench", "--transports", "inproc", "--verify", "NaN"],
+            "--verify must be a share from 0 to 1",
         ),
         (
             vec!["run", "--workers", "1", "--coordinator-share", "sometimes"],

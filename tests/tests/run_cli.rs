@@ -312,6 +312,74 @@ fn a_start_no_run_could_draw_is_refused_naming_the_flag() {
     assert!(edge.status.success(), "{}", stderr(&edge));
 }
 
+/// A flag that the run would not use is refused, never recorded in its
+/// configuration while changing nothing.
+#[test]
+fn flags_the_run_would_not_use_are_refused_naming_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("never");
+    let q = ["run", "--method", "qlearning"];
+    let ga = ["run", "--method", "ga"];
+    for (args, needle) in [
+        (
+            &[&q[..], &["--population", "7"]].concat(),
+            "--population applies only to the GA methods",
+        ),
+        (
+            &[&q[..], &["--max-generations", "9"]].concat(),
+            "--max-generations applies only",
+        ),
+        (
+            &[&q[..], &["--max-restarts", "0"]].concat(),
+            "--max-restarts applies only",
+        ),
+        (
+            &[&q[..], &["--threads", "2"]].concat(),
+            "--threads does not apply to qlearning",
+        ),
+        (
+            &[&ga[..], &["--episodes", "50"]].concat(),
+            "--episodes applies only to --method qlearning",
+        ),
+        (
+            &[&ga[..], &["--workers", "1", "--threads", "4"]].concat(),
+            "--threads is for in-process",
+        ),
+        (
+            &[&ga[..], &["--threads", "2", "--no-pin"]].concat(),
+            "--no-pin needs --workers",
+        ),
+        (
+            &[&ga[..], &["--population", "4"]].concat(),
+            "ga.elites must be fewer than ga.population",
+        ),
+    ] {
+        let said = lander(&[&args[..], &["--out", out.to_str().unwrap()]].concat());
+        assert!(!said.status.success(), "{args:?} was accepted");
+        assert!(
+            stderr(&said).contains(needle),
+            "{args:?}: {}",
+            stderr(&said)
+        );
+        assert!(!out.exists(), "{args:?} made its folder");
+    }
+    // The method a --config file names counts as --method does.
+    let cfg = dir.path().join("q.toml");
+    fs::write(&cfg, "method = \"qlearning\"\n").unwrap();
+    let said = lander(&[
+        "run",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--population",
+        "7",
+    ]);
+    assert!(
+        stderr(&said).contains("--population applies only"),
+        "{}",
+        stderr(&said)
+    );
+}
+
 #[test]
 fn a_negative_number_is_refused_as_a_value_naming_its_flag() {
     let guide = ["guide", "--genome", "1:3", "--x0", "5", "--pad-x", "100"];

@@ -347,6 +347,10 @@ fn bad_sweep_files_are_refused_naming_the_setting_and_key() {
     for (flags, said) in [
         (&["--threads", "5000"][..], "5000 evaluation threads"),
         (&["--in-flight", "0"], "--in-flight"),
+        (
+            &["--threads", "2", "--workers", "1"],
+            "--threads is for in-process",
+        ),
     ] {
         let out = sweep(&file, &never, flags);
         assert!(!out.status.success(), "{flags:?}");

@@ -67,9 +67,10 @@ pub struct BenchArgs {
     /// Transports to compare, comma-separated: inproc, iceoryx2, zenoh.
     #[arg(long, value_delimiter = ',', default_value = "inproc,iceoryx2")]
     transports: Vec<String>,
-    /// zenoh mode: where the coordinator listens (loopback).
-    #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7448")]
-    listen: String,
+    /// zenoh mode: where the coordinator listens (loopback)
+    /// [default: tcp/127.0.0.1:7448].
+    #[arg(long, value_name = "ENDPOINT")]
+    listen: Option<String>,
     /// Chunks each worker gets of a generation, for the worker-process
     /// modes (not --stress, which uses 16). More can balance the workers
     /// better, but each costs a little to send and answer, and a worker
@@ -99,9 +100,9 @@ pub struct BenchArgs {
     #[arg(long, value_name = "RATE", default_value_t = 0.0)]
     verify: f64,
     /// Whether the coordinator of the worker-process modes flies queued
-    /// chunks itself, as `lander run --coordinator-share`.
-    #[arg(long, value_enum, value_name = "WHEN", default_value_t = CoordinatorShare::Auto)]
-    coordinator_share: CoordinatorShare,
+    /// chunks itself, as `lander run --coordinator-share` [default: auto].
+    #[arg(long, value_enum, value_name = "WHEN")]
+    coordinator_share: Option<CoordinatorShare>,
     /// With --stress: worker kills per second, on average [default: 2].
     #[arg(long, value_name = "PER_S")]
     kill_rate: Option<f64>,
@@ -142,15 +143,44 @@ fn pool_options_for(
     if let Some(us) = args.spin_us {
         opts.spin = Duration::from_micros(us);
     }
+    opts.verify = args.verify;
+    let share = args.coordinator_share.unwrap_or(CoordinatorShare::Auto);
+    opts.share = share.applies(workers);
+    opts.stand_in = share.stands_in();
+    Ok(opts)
+}
+
+/// zenoh mode's endpoint unless `--listen` says otherwise.
+const DEFAULT_LISTEN: &str = "tcp/127.0.0.1:7448";
+
+/// Refuses the flags of modes that `kinds` does not run: they would
+/// change nothing, and the report would still name them.
+fn check_mode_flags(args: &BenchArgs, kinds: &[ModeKind]) -> anyhow::Result<()> {
     anyhow::ensure!(
         (0.0..=1.0).contains(&args.verify),
         "--verify must be a share from 0 to 1 (got {})",
         args.verify
     );
-    opts.verify = args.verify;
-    opts.share = args.coordinator_share.applies(workers);
-    opts.stand_in = args.coordinator_share.stands_in();
-    Ok(opts)
+    let pools = kinds
+        .iter()
+        .any(|k| !matches!(k, ModeKind::InProcess { .. }));
+    for (given, flag) in [
+        (args.verify != 0.0, "--verify"),
+        (args.chunks_per_worker.is_some(), "--chunks-per-worker"),
+        (args.coordinator_share.is_some(), "--coordinator-share"),
+        (args.no_pin, "--no-pin"),
+    ] {
+        anyhow::ensure!(
+            pools || !given,
+            "{flag} applies only to the worker-process modes (--transports iceoryx2 or zenoh)"
+        );
+    }
+    let zenoh = kinds.iter().any(|k| matches!(k, ModeKind::Zenoh { .. }));
+    anyhow::ensure!(
+        zenoh || args.listen.is_none(),
+        "--listen applies only to --transports zenoh"
+    );
+    Ok(())
 }
 
 /// The modes `--transports` names, in its order, each transport checked
@@ -200,7 +230,7 @@ fn evaluator(
             let id = format!("bench{:08x}", rand::random::<u32>());
             let opts = pool_options_for(args, id, workers, stop)?;
             let options = NetOptions {
-                listen: vec![args.listen.clone()],
+                listen: vec![args.listen.as_deref().unwrap_or(DEFAULT_LISTEN).to_string()],
                 ..NetOptions::default()
             };
             let transport = Zenoh::open(&opts.run_id, coordinator_config(&options)?)?;
@@ -256,8 +286,19 @@ pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
             "--in-flight does not apply to --stress, which flies one large population"
         );
     }
+    // The modes, checked before the workload is bred (`--stress` has its own).
+    let kinds = if args.stress {
+        Vec::new()
+    } else {
+        let kinds = kinds(&args)?;
+        anyhow::ensure!(!kinds.is_empty(), "--transports named no transport");
+        check_mode_flags(&args, &kinds)?;
+        kinds
+    };
     anyhow::ensure!(
-        cfg.trial.checked_add(u64::from(args.in_flight)).is_some(),
+        cfg.trial
+            .checked_add(u64::from(args.in_flight) - 1)
+            .is_some(),
         "--in-flight {} trials from trial {} would number past the largest trial",
         args.in_flight,
         cfg.trial
@@ -269,8 +310,6 @@ pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
     if args.stress {
         return super::stress::stress(&args_for_stress(&args, &watch.telemetry), &work, stop);
     }
-    let kinds = kinds(&args)?;
-    anyhow::ensure!(!kinds.is_empty(), "--transports named no transport");
     let mut modes = Vec::new();
     for kind in kinds {
         modes.push(Mode::new(

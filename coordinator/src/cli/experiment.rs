@@ -85,6 +85,7 @@ fn experiment_watched(
         .filter(|t| !done.contains(t))
         .collect();
     let todo = experiment_tasks(&exp, &todo);
+    args.transport.check_threads(args.threads != 0)?;
     let in_flight = in_flight(args.in_flight, 4, args.transport.workers, args.threads)?;
     let since = Instant::now();
     let mut backend = args

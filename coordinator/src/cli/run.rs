@@ -110,8 +110,35 @@ impl RunArgs {
         cfg.ga.population = self.population.unwrap_or(cfg.ga.population);
         cfg.ga.max_generations = self.max_generations.unwrap_or(cfg.ga.max_generations);
         cfg.ga.max_restarts = self.max_restarts.unwrap_or(cfg.ga.max_restarts);
+        self.check_method_flags(cfg.method)?;
+        self.transport.check_threads(self.threads.is_some())?;
         cfg.validate()?;
         Ok(cfg)
+    }
+
+    /// Refuses the flags the trial's method would not use: taken in
+    /// silence, they would be recorded in its configuration all the same.
+    fn check_method_flags(&self, method: Method) -> anyhow::Result<()> {
+        let learns = method == Method::Qlearning;
+        for (given, flag) in [
+            (self.population.is_some(), "--population"),
+            (self.max_generations.is_some(), "--max-generations"),
+            (self.max_restarts.is_some(), "--max-restarts"),
+        ] {
+            anyhow::ensure!(
+                !(learns && given),
+                "{flag} applies only to the GA methods (ga, guided), not to qlearning"
+            );
+        }
+        anyhow::ensure!(
+            !(learns && self.threads.is_some()),
+            "--threads does not apply to qlearning, which learns on one thread"
+        );
+        anyhow::ensure!(
+            learns || self.episodes.is_none(),
+            "--episodes applies only to --method qlearning"
+        );
+        Ok(())
     }
 }
 

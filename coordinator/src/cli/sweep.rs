@@ -96,6 +96,7 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
         .map(|s| s.experiment.trial_count() as usize)
         .sum();
     let done = total - plan.trials();
+    args.transport.check_threads(args.threads != 0)?;
     let in_flight = in_flight(
         args.in_flight,
         IN_FLIGHT_PER_WORKER,

@@ -10,7 +10,9 @@ use lander_coordinator::pool::zenoh::Zenoh;
 use lander_coordinator::pool::{cpu_to_spare, IpcPool, Pool, PoolOptions, DEPTH};
 use lander_coordinator::stop::Stop;
 use lander_protocol::iox::{check_run_id, MAX_WORKERS};
-use lander_protocol::net::{coordinator_config, strangers_warning, NetOptions};
+use lander_protocol::net::{
+    any_port, connecting, coordinator_config, listening, strangers_warning, NetOptions,
+};
 use lander_protocol::spin::MAX_SPIN_US;
 use lander_telemetry::Telemetry;
 use std::path::PathBuf;
@@ -147,6 +149,16 @@ impl TransportArgs {
         self.watch.start(run_id)
     }
 
+    /// Refuses `--threads` (`given`) beside `--workers` or `--attach`:
+    /// the workers fly, and the threads would never start.
+    pub fn check_threads(&self, given: bool) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            !given || (self.workers == 0 && !self.attach),
+            "--threads is for in-process evaluation; with --workers or --attach the workers fly"
+        );
+        Ok(())
+    }
+
     /// The evaluator the flags ask for: in-process, spawned workers, or
     /// attached ones, telling `telemetry` what happens to them.
     pub fn evaluator(
@@ -218,6 +230,10 @@ impl TransportArgs {
                 "--coordinator-share needs --workers or --attach: in-process every thread flies"
             );
             anyhow::ensure!(
+                !self.no_pin,
+                "--no-pin needs --workers: in-process threads are not pinned"
+            );
+            anyhow::ensure!(
                 self.transport == TransportArg::Iceoryx2,
                 "--transport zenoh needs --workers N or --attach; without them evaluation is in-process"
             );
@@ -272,6 +288,17 @@ impl TransportArgs {
             ..NetOptions::default()
         };
         let config = coordinator_config(&options)?;
+        // Workers reach the coordinator where it listens, unless it
+        // connects to a router they share.
+        let direct = self.workers > 0 || connecting(&config).is_empty();
+        if let Some(e) = listening(&config)
+            .into_iter()
+            .find(|e| direct && any_port(e))
+        {
+            anyhow::bail!(
+                "zenoh listen endpoint {e} (--listen or --zenoh-config): port 0 leaves the workers no port to connect to; name one"
+            );
+        }
         let then_can = "join this run and send it results";
         let remedy = "pass --users or a mutual-TLS --zenoh-config";
         if let Some(warning) = strangers_warning(&config, then_can, remedy) {
