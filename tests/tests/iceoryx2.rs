@@ -439,6 +439,9 @@ fn spawned_workers_that_never_join_end_the_run_with_an_error() {
     assert!(said.contains(error), "{error} is not what was said: {said}");
 }
 
+/// Attached workers come and go: one killed, one stopped, until none is
+/// left; the coordinator says again how to start them, and the one started
+/// then finishes the run with the results of an undisturbed one.
 #[test]
 fn attached_workers_may_leave_mid_run() {
     let _one_at_a_time = serial();
@@ -453,7 +456,15 @@ fn attached_workers_may_leave_mid_run() {
     let run_id = format!("attach{}", std::process::id());
     let mut attached = args.clone();
     attached.extend(["--attach", "--run-id", &run_id]);
-    let coordinator = start(&iox, dir.path(), &attached);
+    let said = dir.path().join("coordinator.log");
+    let coordinator = iox
+        .command("lander")
+        .args(["run", "--out", dir.path().to_str().unwrap()])
+        .args(&attached)
+        .stdout(Stdio::piped())
+        .stderr(fs::File::create(&said).unwrap())
+        .spawn()
+        .unwrap();
     let worker = || {
         iox.command("lander-worker")
             .args(["--run", &run_id])
@@ -461,12 +472,14 @@ fn attached_workers_may_leave_mid_run() {
             .spawn()
             .unwrap()
     };
-    let (first, second) = (worker(), worker());
+    let (first, mut second) = (worker(), worker());
     let log = dir.path().join("generations.jsonl");
     assert!(
         wait_until(60, || lines_in(&log) >= 40),
         "the run did not get going"
     );
+    second.kill().unwrap();
+    second.wait().unwrap();
     signal(first.id(), "TERM");
     let first = first.wait_with_output().unwrap();
     assert!(
@@ -475,18 +488,26 @@ fn attached_workers_may_leave_mid_run() {
         stderr(&first)
     );
     assert!(stderr(&first).contains("stopped by signal"));
+    let told = || fs::read_to_string(&said).map_or(0, |t| t.matches("waiting for workers").count());
+    assert!(
+        wait_until(60, || told() >= 2),
+        "the coordinator did not say again that it waits: {:?}",
+        fs::read_to_string(&said)
+    );
 
+    let third = worker();
     let out = coordinator.wait_with_output().unwrap();
-    assert!(out.status.success(), "{}", stderr(&out));
-    assert!(stderr(&out).contains(&format!("lander-worker --run {run_id}")));
+    let said = fs::read_to_string(&said).unwrap();
+    assert!(out.status.success(), "{said}");
+    assert!(said.contains(&format!("lander-worker --run {run_id}")));
     assert_eq!(without_wall_time(json_out(&out)), expected.0);
     assert!(fs::read(&log).unwrap() == expected.1);
-    let second = second.wait_with_output().unwrap();
-    assert!(second.status.success());
+    let third = third.wait_with_output().unwrap();
+    assert!(third.status.success());
     assert!(
-        stderr(&second).contains("run finished"),
+        stderr(&third).contains("run finished"),
         "{}",
-        stderr(&second)
+        stderr(&third)
     );
 }
 

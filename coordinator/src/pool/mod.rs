@@ -184,6 +184,7 @@ pub struct Pool<T: Transport> {
     /// The most episodes of a Q(λ) trial one chunk flies
     /// ([`lander_protocol::wire::MOST_EPISODES_PER_CHUNK`]; fewer in tests).
     episodes_per_chunk: u32,
+    /// Whether the pool said it waits for workers since it last had one.
     told_waiting: bool,
     /// Answers read while a step was still being bred, so that their
     /// workers had room for more (`Pool::hand_early`), or while the

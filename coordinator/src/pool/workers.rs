@@ -332,8 +332,12 @@ impl<T: Transport> Pool<T> {
         Ok(())
     }
 
+    /// Says how to start workers where the pool, attached, has none: once
+    /// as it starts, and again each time its last worker goes.
     pub(super) fn tell_waiting(&mut self) {
-        if self.links.is_empty() && self.opts.spawn == 0 && !self.told_waiting {
+        if !self.links.is_empty() {
+            self.told_waiting = false;
+        } else if self.opts.spawn == 0 && !self.told_waiting {
             tracing::info!(
                 "waiting for workers: start them with `lander-worker --run {}{}`",
                 self.opts.run_id,
