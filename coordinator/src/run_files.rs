@@ -457,6 +457,54 @@ pub fn replace_durably(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
 mod tests {
     use super::*;
 
+    /// A log whose file is a pipe that takes only what its buffer holds,
+    /// as a disk that fills midway: each write sends part of the lines.
+    #[test]
+    fn a_write_that_sends_part_of_the_lines_sends_only_the_rest_later() {
+        use std::io::Read;
+        use std::os::fd::{AsRawFd, OwnedFd};
+        let (mut reader, writer) = std::io::pipe().unwrap();
+        let fd = OwnedFd::from(writer);
+        // SAFETY: fcntl on a descriptor this test owns, setting one flag.
+        let set = unsafe { libc::fcntl(fd.as_raw_fd(), libc::F_SETFL, libc::O_NONBLOCK) };
+        assert_eq!(set, 0);
+        let mut log = RunLog::new(PathBuf::from("pipe"), File::from(fd));
+        log.flush_every = Duration::MAX;
+        // Lines enough to fill the pipe's buffer (64 KiB) three times over.
+        let lines: Vec<String> = (0..6000)
+            .map(|i| format!("line {i:05} {}", "x".repeat(20)))
+            .collect();
+        for line in &lines {
+            log.pending
+                .extend_from_slice(serde_json::to_string(line).unwrap().as_bytes());
+            log.pending.push(b'\n');
+        }
+        let mut got = Vec::new();
+        let mut partial = 0;
+        // Each pass empties the pipe, so that the lines go out in a few.
+        let sent = (0..100).any(|_| {
+            if let Err(e) = log.finish() {
+                assert!(e.to_string().contains("pipe"), "{e}");
+                partial += 1;
+                let mut chunk = vec![0; 1 << 20];
+                let n = reader.read(&mut chunk).unwrap();
+                got.extend_from_slice(&chunk[..n]);
+                return false;
+            }
+            true
+        });
+        assert!(sent, "the lines never all went out");
+        drop(log);
+        reader.read_to_end(&mut got).unwrap();
+        assert!(partial >= 2, "no write was cut short");
+        let read: Vec<String> = String::from_utf8(got)
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        assert_eq!(read, lines, "a line lost, cut or sent twice");
+    }
+
     #[test]
     fn a_folder_of_another_commands_results_is_refused_naming_its_file() {
         let dir = tempfile::tempdir().unwrap();
