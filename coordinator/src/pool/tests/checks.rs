@@ -78,20 +78,25 @@ fn with_one_worker_every_check_is_flown_here() {
     );
 }
 
+/// Worker 8 alone is left, the two others refused.
+fn assert_two_refused_and_8_left(pool: &Pool<Nowhere>, dir: &std::path::Path) {
+    let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
+    assert_eq!(ids, [8]);
+    let events = lander_telemetry::events::read(dir).unwrap();
+    let refused = events
+        .iter()
+        .filter(|e| e["event"] == "worker_refused")
+        .count();
+    assert_eq!(refused, 2, "{events:?}");
+}
+
 #[test]
 fn two_wrong_workers_that_disagree_are_both_refused() {
     let (dir, telemetry) = recorded();
     let mut pool = workers(&[(7, 1), (9, 2), (8, 0)], telemetry);
     let (results, _) = run_all_checked(&mut pool);
     assert_eq!(results, [0, 10, 20, 30, 40, 50]);
-    let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
-    assert_eq!(ids, [8]);
-    let events = lander_telemetry::events::read(dir.path()).unwrap();
-    let refused = events
-        .iter()
-        .filter(|e| e["event"] == "worker_refused")
-        .count();
-    assert_eq!(refused, 2, "{events:?}");
+    assert_two_refused_and_8_left(&pool, dir.path());
 }
 
 /// Two workers of one wrong build, each checking the other's first
@@ -114,12 +119,5 @@ fn two_workers_of_one_wrong_build_that_agree_are_both_refused() {
         .run_checked(&fake::no_chunks(12), decode, &check, |_, _| {})
         .unwrap();
     assert_eq!(results, (0..12).map(|c| 10 * c).collect::<Vec<_>>());
-    let ids: Vec<u64> = pool.links.iter().map(|l| l.id).collect();
-    assert_eq!(ids, [8]);
-    let events = lander_telemetry::events::read(dir.path()).unwrap();
-    let refused = events
-        .iter()
-        .filter(|e| e["event"] == "worker_refused")
-        .count();
-    assert_eq!(refused, 2, "{events:?}");
+    assert_two_refused_and_8_left(&pool, dir.path());
 }
