@@ -68,9 +68,28 @@ pub fn check_run_id(id: &str) -> Result<(), String> {
 /// push out its oldest, so the coordinator keeps count of both.
 pub const MAX_QUEUED: usize = 8;
 
-/// Event ids on a worker's `jobs` service.
+/// Event ids on a worker's `jobs` service: a job waits, or the worker is
+/// told to leave ([`farewell_event`]).
 pub const JOB_EVENT: usize = 1;
-pub const SHUTDOWN_EVENT: usize = 2;
+const RUN_OVER_EVENT: usize = 2;
+const DROPPED_EVENT: usize = 3;
+
+/// The event id that tells a worker to leave, and why.
+pub fn farewell_event(why: crate::Farewell) -> usize {
+    match why {
+        crate::Farewell::RunOver => RUN_OVER_EVENT,
+        crate::Farewell::Dropped => DROPPED_EVENT,
+    }
+}
+
+/// Why an event with id `event` tells a worker to leave, if it does.
+pub fn farewell_of(event: usize) -> Option<crate::Farewell> {
+    match event {
+        RUN_OVER_EVENT => Some(crate::Farewell::RunOver),
+        DROPPED_EVENT => Some(crate::Farewell::Dropped),
+        _ => None,
+    }
+}
 
 pub type EvalService =
     request_response::PortFactory<ipc::Service, [WireGene], JobHeader, [u8], ResultHeader>;
@@ -432,6 +451,15 @@ pub fn register_service(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_farewell_event_says_why_and_a_job_is_none() {
+        for why in [crate::Farewell::RunOver, crate::Farewell::Dropped] {
+            assert_eq!(farewell_of(farewell_event(why)), Some(why));
+            assert_ne!(farewell_event(why), JOB_EVENT);
+        }
+        assert_eq!(farewell_of(JOB_EVENT), None);
+    }
 
     #[test]
     fn a_run_id_is_checked_and_a_long_one_shown_cut() {

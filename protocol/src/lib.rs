@@ -13,6 +13,18 @@
 
 pub mod envelope;
 pub mod host;
+
+/// Why a coordinator tells a worker to leave: each transport carries it
+/// (`iox::farewell_event`, `net::leave_word`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Farewell {
+    /// The run is over.
+    RunOver,
+    /// The coordinator dropped this worker (a missed deadline, a refused
+    /// answer, a broken link) and flies its work elsewhere.
+    Dropped,
+}
+
 pub mod iox;
 pub mod net;
 pub mod spin;

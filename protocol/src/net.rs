@@ -390,9 +390,30 @@ impl RunKeys {
         format!("lander/{}/worker/{id:016x}/jobs", self.run)
     }
 
-    /// Where a worker is told to leave.
+    /// Where a worker is told to leave ([`leave_word`]).
     pub fn leave(&self, id: u64) -> String {
         format!("lander/{}/worker/{id:016x}/leave", self.run)
+    }
+}
+
+/// What is put on a worker's leave key: nothing where the run is over.
+const DROPPED_WORD: &[u8] = b"dropped";
+
+/// The value put on a worker's leave key for `why`.
+pub fn leave_word(why: crate::Farewell) -> &'static [u8] {
+    match why {
+        crate::Farewell::RunOver => b"",
+        crate::Farewell::Dropped => DROPPED_WORD,
+    }
+}
+
+/// Why a value put on a worker's leave key tells it to leave (any other
+/// than the dropped word: the run is over).
+pub fn farewell_in(word: &[u8]) -> crate::Farewell {
+    if word == DROPPED_WORD {
+        crate::Farewell::Dropped
+    } else {
+        crate::Farewell::RunOver
     }
 }
 
@@ -527,6 +548,14 @@ mod tests {
         assert_eq!(cfg.get_json("mode").unwrap(), r#""router""#);
         coordinator_config(&any).unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_leave_word_says_why() {
+        for why in [crate::Farewell::RunOver, crate::Farewell::Dropped] {
+            assert_eq!(farewell_in(leave_word(why)), why);
+        }
+        assert_eq!(farewell_in(b"something else"), crate::Farewell::RunOver);
     }
 
     #[test]

@@ -25,10 +25,17 @@ struct Ran {
     best: Vec<u8>,
     said: String,
     events: Vec<Value>,
+    /// How the lying worker ended, and what it said (none in-process).
+    liar: Option<std::process::Output>,
 }
 
-fn ran(out: &std::path::Path, done: &std::process::Output) -> Ran {
+fn ran(
+    out: &std::path::Path,
+    done: &std::process::Output,
+    liar: Option<std::process::Output>,
+) -> Ran {
     Ran {
+        liar,
         summary: without_wall_time(json_out(done)),
         generations: fs::read(out.join("generations.jsonl")).unwrap(),
         best: fs::read(out.join("best.json")).unwrap(),
@@ -42,7 +49,7 @@ fn honest_run(dir: &std::path::Path) -> Ran {
     let out = dir.join("inproc");
     let mut args = RUN.to_vec();
     args.extend(["--json", "--out", out.to_str().unwrap()]);
-    ran(&out, &lander(&args))
+    ran(&out, &lander(&args), None)
 }
 
 /// RUN over two attached workers, the liar and an honest one, checked at
@@ -51,13 +58,14 @@ fn with_a_liar(dir: &std::path::Path, rate: &str) -> Ran {
     let out = dir.join(format!("attached-{rate}"));
     let mut args = RUN.to_vec();
     args.extend(["--json", "--out", out.to_str().unwrap()]);
-    let done = beside_a_liar(&args, rate);
-    ran(&out, &done)
+    let (done, liar) = beside_a_liar(&args, rate);
+    ran(&out, &done, Some(liar))
 }
 
 /// The `lander` command `args`, over two attached workers, the liar and an
-/// honest one, checked at `rate`; once it succeeded.
-fn beside_a_liar(args: &[&str], rate: &str) -> std::process::Output {
+/// honest one, checked at `rate`; once it succeeded, with how the liar
+/// ended.
+fn beside_a_liar(args: &[&str], rate: &str) -> (std::process::Output, std::process::Output) {
     let name = format!("{}{}", args[0], rate.replace('.', "_"));
     let iox = Iox::new(&name);
     let run_id = format!("{}{}", name.replace('_', ""), std::process::id());
@@ -78,18 +86,24 @@ fn beside_a_liar(args: &[&str], rate: &str) -> std::process::Output {
             cmd.arg("--lie");
         }
         cmd.stdout(Stdio::null())
-            .stderr(Stdio::null())
+            .stderr(Stdio::piped())
             .spawn()
             .unwrap()
     };
-    let mut liar = worker(LIAR, true);
-    let mut honest = worker(HONEST, false);
+    let liar = worker(LIAR, true);
+    let honest = worker(HONEST, false);
     let done = coordinator.wait_with_output().unwrap();
     assert!(done.status.success(), "{}", stderr(&done));
     // Both workers end: the liar told to leave, the honest one at the end.
-    liar.wait().unwrap();
-    honest.wait().unwrap();
-    done
+    let liar = liar.wait_with_output().unwrap();
+    let honest = honest.wait_with_output().unwrap();
+    assert!(honest.status.success(), "{}", stderr(&honest));
+    assert!(
+        stderr(&honest).contains("run finished"),
+        "{}",
+        stderr(&honest)
+    );
+    (done, liar)
 }
 
 /// A small experiment of both GAs.
@@ -114,7 +128,7 @@ fn an_experiment_beside_a_liar_checked_at_1_has_the_results_of_one_in_process() 
     let here = lander(&["experiment", file, "--out", inproc.to_str().unwrap()]);
     assert!(here.status.success(), "{}", stderr(&here));
     let args = ["experiment", file, "--out", attached.to_str().unwrap()];
-    let done = beside_a_liar(&args, "1");
+    let (done, _) = beside_a_liar(&args, "1");
     assert!(
         stderr(&done).contains(&format!("refusing worker {LIAR}")),
         "{}",
@@ -157,6 +171,15 @@ fn a_lying_worker_is_caught_dropped_and_its_work_done_again() {
             !said.contains(&format!("refusing worker {HONEST}")),
             "{said}"
         );
+        // The liar is told it was dropped, and fails, so that a service
+        // manager would start it again.
+        let liar = got.liar.as_ref().unwrap();
+        let liar_said = stderr(liar);
+        assert_eq!(liar.status.code(), Some(3), "{rate}: {liar_said}");
+        assert!(
+            liar_said.contains("the coordinator dropped this worker"),
+            "{rate}: {liar_said}"
+        );
         // events.jsonl names the liar, and only the liar, as refused, and
         // its chunks as flown again.
         let refused: Vec<&Value> = got
@@ -190,6 +213,9 @@ fn without_verify_the_liar_changes_the_results() {
         "the liar went unnoticed and changed nothing: the lie is too weak to test --verify"
     );
     assert!(!got.events.iter().any(|e| e["event"] == "worker_refused"));
+    let liar = got.liar.unwrap();
+    assert!(liar.status.success(), "{}", stderr(&liar));
+    assert!(stderr(&liar).contains("run finished"));
 }
 
 #[test]

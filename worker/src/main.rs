@@ -115,6 +115,9 @@ fn parse_hex(s: &str) -> Result<u64, String> {
     u64::from_str_radix(s, 16).map_err(|e| format!("`{s}` is not a hex id: {e}"))
 }
 
+/// The status of a worker its coordinator dropped.
+const DROPPED: u8 = 3;
+
 fn main() -> ExitCode {
     let args = Args::parse();
     if args.lie {
@@ -209,15 +212,24 @@ fn main() -> ExitCode {
     };
     match served {
         Ok(exit) => {
-            let why = match exit {
-                Exit::RunFinished => "run finished",
-                Exit::CoordinatorGone => "the coordinator is gone",
-                Exit::Signal if parent::gone() => "the coordinator is gone",
-                Exit::Signal => "stopped by signal",
+            let (kind, why, code) = match exit {
+                Exit::RunFinished => (Note::Info, "run finished", ExitCode::SUCCESS),
+                Exit::CoordinatorGone => (Note::Info, "the coordinator is gone", ExitCode::SUCCESS),
+                Exit::Signal if parent::gone() => {
+                    (Note::Info, "the coordinator is gone", ExitCode::SUCCESS)
+                }
+                Exit::Signal => (Note::Info, "stopped by signal", ExitCode::SUCCESS),
+                // Not a success: a service manager that restarts failed
+                // workers brings this one back, as a new worker.
+                Exit::Dropped => (
+                    Note::Warning,
+                    "the coordinator dropped this worker (a missed deadline or a refused answer: its log says which)",
+                    ExitCode::from(DROPPED),
+                ),
             };
             let jobs = serve::answered();
-            note(Note::Info, &format!("{why} after {jobs} jobs; exiting"));
-            ExitCode::SUCCESS
+            note(kind, &format!("{why} after {jobs} jobs; exiting"));
+            code
         }
         Err(e) => {
             tracing::error!("{e}");

@@ -12,8 +12,9 @@ use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use lander_protocol::host::host_clock_ns;
-use lander_protocol::iox::{self, IpcError, RunNames, JOB_EVENT, MAX_QUEUED, SHUTDOWN_EVENT};
+use lander_protocol::iox::{self, IpcError, RunNames, JOB_EVENT, MAX_QUEUED};
 use lander_protocol::wire::{JobHeader, ResultHeader, WireGene, WorkerAnnounce};
+use lander_protocol::Farewell;
 use std::collections::HashMap;
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -400,10 +401,9 @@ impl WorkerLink for Link {
         self.broken = true;
     }
 
-    /// Tells the worker the run is over.
-    fn shut_down(&self) {
+    fn shut_down(&self, why: Farewell) {
         let _ = self
             .jobs
-            .notify_with_custom_event_id(EventId::new(SHUTDOWN_EVENT));
+            .notify_with_custom_event_id(EventId::new(iox::farewell_event(why)));
     }
 }

@@ -8,6 +8,7 @@ use crate::evaluator::EvalError;
 use lander_protocol::wire::{
     JobHeader, ResultHeader, Status, WireError, WireGene, PROTOCOL_VERSION,
 };
+use lander_protocol::Farewell;
 use std::time::{Duration, Instant};
 
 /// A worker that announced itself.
@@ -105,8 +106,8 @@ pub trait WorkerLink {
     fn poll(&mut self) -> (Vec<Answer>, Option<String>);
     /// Marks the link unusable, for an answer the caller refused.
     fn break_off(&mut self);
-    /// Tells the worker the run is over.
-    fn shut_down(&self);
+    /// Tells the worker to leave, and why.
+    fn shut_down(&self, why: Farewell);
 }
 
 pub(super) fn overdue(link: &impl WorkerLink, now: Instant) -> bool {

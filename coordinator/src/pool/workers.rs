@@ -11,6 +11,7 @@ use super::{iceoryx, IpcPool, Pool, PoolOptions, Transport, WorkerLink, DEPTH};
 use crate::evaluator::EvalError;
 use lander_protocol::host::Pinned;
 use lander_protocol::wire::PROTOCOL_VERSION;
+use lander_protocol::Farewell;
 use lander_telemetry::events::{Cause, Death};
 use lander_telemetry::{Event, Telemetry, WorkerRef};
 use std::collections::{HashMap, HashSet, VecDeque};
@@ -263,7 +264,7 @@ impl<T: Transport> Pool<T> {
             }
             // A worker we stop trusting is told to leave and, if we
             // spawned it, killed (the next reap replaces it).
-            link.shut_down();
+            link.shut_down(Farewell::Dropped);
             dropped.push((link.id(), link.pid(), chunks.len()));
             false
         });
@@ -370,7 +371,7 @@ impl<T: Transport> Pool<T> {
 impl<T: Transport> Drop for Pool<T> {
     fn drop(&mut self) {
         for link in &self.links {
-            link.shut_down();
+            link.shut_down(Farewell::RunOver);
         }
         self.await_leaving(self.transport.farewell());
         let told: Vec<ChildId> = self.links.iter().map(ChildId::of).collect();

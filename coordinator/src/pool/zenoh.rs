@@ -12,6 +12,7 @@ use lander_protocol::envelope::{decode_result, encode_job};
 use lander_protocol::host::host_clock_ns;
 use lander_protocol::net::{self, NetError, RunKeys};
 use lander_protocol::wire::{JobHeader, WireGene};
+use lander_protocol::Farewell;
 use std::collections::VecDeque;
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
 use std::sync::{Arc, Mutex};
@@ -362,8 +363,8 @@ impl WorkerLink for Link {
         self.broken = true;
     }
 
-    fn shut_down(&self) {
-        let _ = self.session.put(&self.leave, Vec::<u8>::new()).wait();
+    fn shut_down(&self, why: Farewell) {
+        let _ = self.session.put(&self.leave, net::leave_word(why)).wait();
     }
 }
 

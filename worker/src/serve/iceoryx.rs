@@ -6,7 +6,7 @@
 use super::{answer, Exit, Note};
 use iceoryx2::prelude::*;
 use iceoryx2::waitset::WaitSetRunResult;
-use lander_protocol::iox::{self, IpcError, RunNames, SHUTDOWN_EVENT};
+use lander_protocol::iox::{self, IpcError, RunNames};
 use lander_protocol::spin::Spin;
 use lander_protocol::wire::{ResultHeader, WorkerAnnounce, PROTOCOL_VERSION};
 use std::cell::{Cell, RefCell};
@@ -129,12 +129,10 @@ fn serve_on(
     let mut on_event = |attachment: WaitSetAttachmentId<ipc::Service>| {
         if attachment.has_event_from(&job_guard) {
             spin.woke();
-            let shutdown = match shutdown_asked(&jobs) {
-                Ok(asked) => asked,
+            match farewell(&jobs) {
+                Ok(None) => {}
+                Ok(told) => return stop(Ok(told)),
                 Err(e) => return stop(Err(e)),
-            };
-            if shutdown {
-                return stop(Ok(Some(Exit::RunFinished)));
             }
             let drained = || {
                 wake.notify()
@@ -158,12 +156,8 @@ fn serve_on(
             if wake_service.dynamic_config().number_of_listeners() == 0 {
                 // The coordinator says the run is over before it leaves; a
                 // word still waiting here means it ended the run cleanly.
-                let exit = if shutdown_asked(&jobs).unwrap_or(false) {
-                    Exit::RunFinished
-                } else {
-                    Exit::CoordinatorGone
-                };
-                return stop(Ok(Some(exit)));
+                let exit = farewell(&jobs).ok().flatten();
+                return stop(Ok(Some(exit.unwrap_or(Exit::CoordinatorGone))));
             }
             if !served.get() {
                 if let Err(e) = announce() {
@@ -192,14 +186,17 @@ fn serve_on(
     }))
 }
 
-/// Drains the job events; true if one of them says the run is over.
-fn shutdown_asked(
+/// Drains the job events; the exit one of them tells the worker to take,
+/// if one does.
+fn farewell(
     jobs: &iceoryx2::port::listener::Listener<ipc::Service>,
-) -> Result<bool, IpcError> {
-    let mut shutdown = false;
-    jobs.try_wait(|ev| shutdown |= ev.id.as_value() == SHUTDOWN_EVENT)
-        .map_err(iox::fail("reading job events"))?;
-    Ok(shutdown)
+) -> Result<Option<Exit>, IpcError> {
+    let mut told = None;
+    jobs.try_wait(|ev| {
+        told = told.or(iox::farewell_of(ev.id.as_value()));
+    })
+    .map_err(iox::fail("reading job events"))?;
+    Ok(told.map(Exit::told))
 }
 
 /// Sleeps up to `timeout`; true if SIGTERM or SIGINT asked the worker to

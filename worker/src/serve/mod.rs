@@ -66,10 +66,22 @@ fn lie(mut result: ChunkResult) -> ChunkResult {
 pub enum Exit {
     /// The coordinator said the run is over.
     RunFinished,
+    /// The coordinator dropped this worker, flying its work elsewhere.
+    Dropped,
     /// The coordinator's node is gone.
     CoordinatorGone,
     /// SIGINT or SIGTERM.
     Signal,
+}
+
+impl Exit {
+    /// The exit a coordinator's farewell asks for.
+    pub fn told(why: lander_protocol::Farewell) -> Exit {
+        match why {
+            lander_protocol::Farewell::RunOver => Exit::RunFinished,
+            lander_protocol::Farewell::Dropped => Exit::Dropped,
+        }
+    }
 }
 
 /// What a worker tells its user.

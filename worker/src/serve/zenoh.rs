@@ -8,7 +8,7 @@ use lander_protocol::envelope::{decode_job, encode_result};
 use lander_protocol::net::{self, worker_config, NetError, NetOptions, RunKeys};
 use lander_protocol::wire::PROTOCOL_VERSION;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use zenoh::query::Query;
 use zenoh::sample::{Sample, SampleKind};
@@ -124,11 +124,17 @@ fn serve_session(
     say: &dyn Fn(Note, &str),
 ) -> Result<Exit, NetError> {
     let keys = RunKeys::new(run);
-    let leave = Arc::new(AtomicBool::new(false));
-    let flag = leave.clone();
+    // Why the coordinator told this worker to leave, once it has.
+    let leave: Arc<Mutex<Option<Exit>>> = Arc::default();
+    let told = leave.clone();
     let _leave = session
         .declare_subscriber(keys.leave(id))
-        .callback(move |_: Sample| flag.store(true, Ordering::Relaxed))
+        .callback(move |s: Sample| {
+            let why = net::farewell_in(&s.payload().to_bytes());
+            if let Ok(mut told) = told.lock() {
+                *told = Some(Exit::told(why));
+            }
+        })
         .wait()
         .map_err(net::fail("subscribing to the leave key"))?;
     let (seen, gone) = (
@@ -171,8 +177,8 @@ fn serve_session(
         if stop.load(Ordering::Relaxed) {
             return Ok(Exit::Signal);
         }
-        if leave.load(Ordering::Relaxed) {
-            return Ok(Exit::RunFinished);
+        if let Some(exit) = leave.lock().ok().and_then(|told| *told) {
+            return Ok(exit);
         }
         if seen.load(Ordering::Relaxed) && gone.load(Ordering::Relaxed) {
             return Ok(Exit::CoordinatorGone);

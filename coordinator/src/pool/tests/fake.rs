@@ -7,6 +7,7 @@ use crate::pool::{
 use crate::stop::Stop;
 use lander_model::learn::run_training;
 use lander_protocol::wire::{encode, Job, JobHeader, WireGene};
+use lander_protocol::Farewell;
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -165,7 +166,7 @@ impl WorkerLink for Recorder {
     fn break_off(&mut self) {
         self.broken = true;
     }
-    fn shut_down(&self) {}
+    fn shut_down(&self, _: Farewell) {}
 }
 
 /// No transport: no worker ever arrives, and a sleep returns at once,
