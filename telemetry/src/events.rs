@@ -109,7 +109,7 @@ pub enum Event {
     WorkerRespawned {
         pid: u32,
     },
-    /// The chunks a lost worker held go to other workers.
+    /// The chunks a lost worker held go back to be flown again.
     ChunksRedispatched {
         #[serde(flatten)]
         worker: WorkerRef,
@@ -153,7 +153,10 @@ impl fmt::Display for Event {
                 w.id, w.pid, w.host
             ),
             Event::WorkerRespawned { pid } => {
-                write!(f, "started worker process {pid} in place of one that died")
+                write!(
+                    f,
+                    "started worker process {pid} in place of one that is gone"
+                )
             }
             Event::ChunksRedispatched {
                 worker: w,
@@ -161,7 +164,7 @@ impl fmt::Display for Event {
                 why,
             } => write!(
                 f,
-                "{chunks} chunk(s) of worker {:016x} go to other workers ({})",
+                "{chunks} chunk(s) of worker {:016x} go back to be flown again ({})",
                 w.id,
                 why.name()
             ),

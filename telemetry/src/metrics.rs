@@ -165,7 +165,7 @@ impl CoordinatorMetrics {
             chunks_redispatched: counter_vec(
                 &r,
                 "lander_chunks_redispatched_total",
-                "Chunks sent again after their worker was lost, by cause.",
+                "Chunks put back to be flown again after their worker was lost, by cause.",
                 "cause",
             ),
             chunks_refused: counter(
