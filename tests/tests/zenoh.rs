@@ -1,7 +1,8 @@
 //! The evaluator pool over zenoh between real processes and real sessions
 //! on loopback: identical results to iceoryx2 and in-process, no lost work
-//! when a worker dies, strangers without credentials kept out, and
-//! malformed frames refused by a worker that serves on.
+//! when a worker dies, a liar refused and told it was dropped, strangers
+//! without credentials kept out, and malformed frames refused by a worker
+//! that serves on.
 
 use lander_tests::{
     json_out, lines_in, signal, stderr, wait_until, without_wall_time, worker_children, Iox,
@@ -215,6 +216,57 @@ fn jobs_answered(said: &str) -> u64 {
     let jobs = after.split_whitespace().next().unwrap_or_default();
     jobs.parse()
         .unwrap_or_else(|_| panic!("no job count in: {said}"))
+}
+
+/// A liar over zenoh, every answer checked: refused, told it was dropped
+/// (it exits 3, saying so), and the results those of in-process; the
+/// honest worker is told the run finished.
+#[test]
+fn a_zenoh_liar_is_told_it_was_dropped_and_the_results_stand() {
+    let iox = Iox::new("zenoh_liar");
+    let args = [
+        "--method",
+        "guided",
+        "--seed",
+        "3",
+        "--population",
+        "60",
+        "--max-generations",
+        "20",
+        "--max-restarts",
+        "0",
+        "--json",
+    ];
+    let calm = expected(&iox, &args);
+    let dir = tempfile::tempdir().unwrap();
+    let ep = endpoint(5);
+    let run_id = format!("liar{}", std::process::id());
+    let mut coordinator_args = attached(&args, &run_id, &ep);
+    coordinator_args.extend(["--min-workers", "2", "--verify", "1"]);
+    let coordinator = start(&iox, dir.path(), &coordinator_args);
+    let liar = zenoh_worker(&iox, &run_id, &ep)
+        .arg("--lie")
+        .spawn()
+        .unwrap();
+    let honest = zenoh_worker(&iox, &run_id, &ep).spawn().unwrap();
+    let out = coordinator.wait_with_output().unwrap();
+    let got = results(&out, dir.path());
+    assert_eq!(got.0, calm.0);
+    assert!(got.1 == calm.1, "generations.jsonl differs from in-process");
+    let liar = liar.wait_with_output().unwrap();
+    assert_eq!(liar.status.code(), Some(3), "{}", stderr(&liar));
+    assert!(
+        stderr(&liar).contains("the coordinator dropped this worker"),
+        "{}",
+        stderr(&liar)
+    );
+    let honest = honest.wait_with_output().unwrap();
+    assert!(honest.status.success(), "{}", stderr(&honest));
+    assert!(
+        stderr(&honest).contains("run finished"),
+        "{}",
+        stderr(&honest)
+    );
 }
 
 #[test]
