@@ -352,7 +352,7 @@ fn bad_experiment_files_are_named() {
     assert!(stderr(&none).contains("--in-flight"), "{}", stderr(&none));
     let many = run_experiment(&file, &dir.path().join("never"), &["--threads", "5000"]);
     assert!(
-        stderr(&many).contains("5000 evaluation threads"),
+        stderr(&many).contains("'--threads <THREADS>': 5000 is not in 0..=1024"),
         "{}",
         stderr(&many)
     );

@@ -663,7 +663,10 @@ fn bad_worker_options_are_refused() {
             vec!["run", "--workers", "1", "--deadline", "1e99"],
             "at most 86400 seconds",
         ),
-        (vec!["run", "--threads", "5000"], "to 1024"),
+        (
+            vec!["run", "--threads", "5000"],
+            "invalid value '5000' for '--threads <THREADS>': 5000 is not in 0..=1024",
+        ),
         (
             vec!["run", "--workers", "1", "--spin-us", "20000"],
             "--spin-us must be at most 10000",

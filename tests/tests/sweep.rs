@@ -345,7 +345,10 @@ fn bad_sweep_files_are_refused_naming_the_setting_and_key() {
         &format!("{BASE}[grids.g]\n\"guided.epsilon\" = [0.1]\n"),
     );
     for (flags, said) in [
-        (&["--threads", "5000"][..], "5000 evaluation threads"),
+        (
+            &["--threads", "5000"][..],
+            "'--threads <THREADS>': 5000 is not in 0..=1024",
+        ),
         (&["--in-flight", "0"], "--in-flight"),
         (
             &["--threads", "2", "--workers", "1"],

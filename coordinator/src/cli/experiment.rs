@@ -38,7 +38,7 @@ pub struct ExperimentArgs {
     #[arg(long)]
     resume: bool,
     /// In-process evaluation threads; 0 means one per core.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = super::threads_parser())]
     threads: usize,
     /// GA trials stepped together, a generation of each per round, fewer
     /// where their generations would hold over 4 × 10^8 genes [default:

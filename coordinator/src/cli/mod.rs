@@ -153,6 +153,13 @@ pub fn dispatch(cli: Cli, stop: &Stop) -> anyhow::Result<()> {
     }
 }
 
+/// A `--threads` flag's parser: 0 (one per core) to the most threads an
+/// evaluator starts, refused naming the flag beyond.
+pub fn threads_parser() -> clap::builder::RangedU64ValueParser<usize> {
+    let most = lander_coordinator::evaluator::MAX_THREADS as u64;
+    clap::builder::RangedU64ValueParser::<usize>::new().range(0..=most)
+}
+
 /// A `--method` flag's parser: one of `methods`, by name, listed in the
 /// help and in the error for any other word.
 pub fn method_parser(

@@ -43,7 +43,7 @@ pub struct RunArgs {
     #[arg(long)]
     population: Option<usize>,
     /// Evaluation threads; 0 means one per core.
-    #[arg(long)]
+    #[arg(long, value_parser = super::threads_parser())]
     threads: Option<usize>,
     /// Generations per attempt before a restart with a new pad (paper: 500).
     #[arg(long)]
