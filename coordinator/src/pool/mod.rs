@@ -139,8 +139,9 @@ pub type ZenohPool = Pool<zenoh::Zenoh>;
 
 /// What one look at a link found.
 struct Polled {
-    /// Its worker's id.
+    /// Its worker's id and pid.
     id: u64,
+    pid: u32,
     answers: Vec<Answer>,
     /// Why an answer was refused, if one was.
     refused: Option<String>,

@@ -50,11 +50,19 @@ pub(super) fn chunk_ranges(n: usize, parts: usize, workers: usize) -> Vec<Range<
     ranges
 }
 
+/// A worker refused, as events name it, and why.
+struct Refusal {
+    worker: u64,
+    pid: u32,
+    why: String,
+}
+
 /// One look at `link`'s answers.
 fn look(link: &mut impl WorkerLink) -> Polled {
     let (answers, refused) = link.poll();
     Polled {
         id: link.id(),
+        pid: link.pid(),
         answers,
         refused,
     }
@@ -282,22 +290,29 @@ impl<T: Transport> Pool<T> {
         for (worker, why) in verdict.refusals {
             if !distrusted.contains(&worker) {
                 distrusted.push(worker);
-                self.refuse_worker(progress, worker, why, again_of == Some(worker));
+                let also = usize::from(again_of == Some(worker));
+                self.refuse_worker(
+                    progress,
+                    Refusal {
+                        worker,
+                        pid: 0,
+                        why,
+                    },
+                    also,
+                );
             }
         }
     }
 
-    /// Refuses `worker` for good: breaks its link, says why, and puts back
-    /// every chunk it answered in the generation (`and_one`: besides the
-    /// one just put back).
-    fn refuse_worker<R>(
-        &mut self,
-        progress: &mut Progress<R>,
-        worker: u64,
-        why: String,
-        and_one: bool,
-    ) {
-        let mut pid = 0;
+    /// Refuses a worker for good: breaks its link, says why, and puts back
+    /// every chunk it answered in the generation (`also`: besides those
+    /// just put back).
+    fn refuse_worker<R>(&mut self, progress: &mut Progress<R>, refusal: Refusal, also: usize) {
+        let Refusal {
+            worker,
+            mut pid,
+            why,
+        } = refusal;
         for link in self.links.iter_mut().filter(|l| l.id() == worker) {
             link.break_off();
             pid = link.pid();
@@ -305,7 +320,7 @@ impl<T: Transport> Pool<T> {
         let who = self.worker_ref(worker, pid);
         self.refuse(worker, who.clone(), why);
         // Its other answers are no longer believed either.
-        let chunks = progress.disown(worker) + usize::from(and_one);
+        let chunks = progress.disown(worker) + also;
         if chunks > 0 {
             self.telemetry.event(Event::ChunksRedispatched {
                 worker: who,
@@ -323,18 +338,22 @@ impl<T: Transport> Pool<T> {
     /// list holds those workers, none of whose answers may be believed.
     fn collect<R>(&mut self, progress: &mut Progress<R>) -> (Vec<(u64, Answer)>, Vec<u64>) {
         let mut fresh = Vec::new();
-        let mut refused_now = Vec::new();
+        let mut refusals = Vec::new();
         let mut polled = std::mem::take(&mut self.arrived);
         polled.extend(self.links.iter_mut().map(look));
         for Polled {
             id,
+            pid,
             answers,
             refused,
         } in polled
         {
             if let Some(e) = refused {
-                self.refuse_worker(progress, id, format!("a result: {e}"), false);
-                refused_now.push(id);
+                refusals.push(Refusal {
+                    worker: id,
+                    pid,
+                    why: format!("a result: {e}"),
+                });
             }
             for a in answers {
                 self.busy.workers += a.timing.compute();
@@ -349,7 +368,18 @@ impl<T: Transport> Pool<T> {
                 }
             }
         }
-        (fresh, refused_now)
+        // Once every answer is in hand: those of a refused worker go back
+        // to be flown again, and are counted with the rest of its work.
+        let mut refused = Vec::new();
+        for refusal in refusals {
+            if refused.contains(&refusal.worker) {
+                continue;
+            }
+            refused.push(refusal.worker);
+            let in_hand = fresh.iter().filter(|(w, _)| *w == refusal.worker).count();
+            self.refuse_worker(progress, refusal, in_hand);
+        }
+        (fresh, refused)
     }
 
     /// Refuses worker `id` for good, saying why; its link is dropped by

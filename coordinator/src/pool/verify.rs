@@ -159,7 +159,10 @@ impl<T: Transport> Pool<T> {
             return Verdict::take(held.value, held.by);
         }
         let verdict = self.decide(check, c, held, Some((value, checker)));
-        if !verdict.refusals.iter().any(|(w, _)| *w == checker) {
+        // Taken, the held answer agreed with this host's; the checker, not
+        // refused, agreed too.
+        let taken = matches!(verdict.outcome, Outcome::Take(..));
+        if taken && !verdict.refusals.iter().any(|(w, _)| *w == checker) {
             self.vetted.insert(checker);
         }
         verdict
