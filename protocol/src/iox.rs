@@ -73,12 +73,14 @@ pub const MAX_QUEUED: usize = 8;
 pub const JOB_EVENT: usize = 1;
 const RUN_OVER_EVENT: usize = 2;
 const DROPPED_EVENT: usize = 3;
+const REFUSED_EVENT: usize = 4;
 
 /// The event id that tells a worker to leave, and why.
 pub fn farewell_event(why: crate::Farewell) -> usize {
     match why {
         crate::Farewell::RunOver => RUN_OVER_EVENT,
         crate::Farewell::Dropped => DROPPED_EVENT,
+        crate::Farewell::Refused => REFUSED_EVENT,
     }
 }
 
@@ -87,6 +89,7 @@ pub fn farewell_of(event: usize) -> Option<crate::Farewell> {
     match event {
         RUN_OVER_EVENT => Some(crate::Farewell::RunOver),
         DROPPED_EVENT => Some(crate::Farewell::Dropped),
+        REFUSED_EVENT => Some(crate::Farewell::Refused),
         _ => None,
     }
 }
@@ -454,7 +457,11 @@ mod tests {
 
     #[test]
     fn a_farewell_event_says_why_and_a_job_is_none() {
-        for why in [crate::Farewell::RunOver, crate::Farewell::Dropped] {
+        for why in [
+            crate::Farewell::RunOver,
+            crate::Farewell::Dropped,
+            crate::Farewell::Refused,
+        ] {
             assert_eq!(farewell_of(farewell_event(why)), Some(why));
             assert_ne!(farewell_event(why), JOB_EVENT);
         }

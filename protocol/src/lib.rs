@@ -20,9 +20,12 @@ pub mod host;
 pub enum Farewell {
     /// The run is over.
     RunOver,
-    /// The coordinator dropped this worker (a missed deadline, a refused
-    /// answer, a broken link) and flies its work elsewhere.
+    /// The coordinator dropped this worker (a missed deadline, a broken
+    /// link) and flies its work elsewhere.
     Dropped,
+    /// The coordinator refused this worker's answers (wrong under
+    /// `--verify`, or not decoding) and will not take it back.
+    Refused,
 }
 
 pub mod iox;

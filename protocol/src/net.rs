@@ -398,22 +398,24 @@ impl RunKeys {
 
 /// What is put on a worker's leave key: nothing where the run is over.
 const DROPPED_WORD: &[u8] = b"dropped";
+const REFUSED_WORD: &[u8] = b"refused";
 
 /// The value put on a worker's leave key for `why`.
 pub fn leave_word(why: crate::Farewell) -> &'static [u8] {
     match why {
         crate::Farewell::RunOver => b"",
         crate::Farewell::Dropped => DROPPED_WORD,
+        crate::Farewell::Refused => REFUSED_WORD,
     }
 }
 
-/// Why a value put on a worker's leave key tells it to leave (any other
-/// than the dropped word: the run is over).
+/// Why a value put on a worker's leave key tells it to leave (any word
+/// but those of [`leave_word`]: the run is over).
 pub fn farewell_in(word: &[u8]) -> crate::Farewell {
-    if word == DROPPED_WORD {
-        crate::Farewell::Dropped
-    } else {
-        crate::Farewell::RunOver
+    match word {
+        DROPPED_WORD => crate::Farewell::Dropped,
+        REFUSED_WORD => crate::Farewell::Refused,
+        _ => crate::Farewell::RunOver,
     }
 }
 
@@ -552,7 +554,11 @@ mod tests {
 
     #[test]
     fn a_leave_word_says_why() {
-        for why in [crate::Farewell::RunOver, crate::Farewell::Dropped] {
+        for why in [
+            crate::Farewell::RunOver,
+            crate::Farewell::Dropped,
+            crate::Farewell::Refused,
+        ] {
             assert_eq!(farewell_in(leave_word(why)), why);
         }
         assert_eq!(farewell_in(b"something else"), crate::Farewell::RunOver);

@@ -439,7 +439,8 @@ fn spawned_workers_that_never_join_end_the_run_with_an_error() {
     assert!(said.contains(error), "{error} is not what was said: {said}");
 }
 
-/// Attached workers come and go: one killed, one stopped, until none is
+/// Attached workers come and go: one frozen past its deadline (dropped,
+/// it is told so and exits 3 once thawed), one stopped, until none is
 /// left; the coordinator says again how to start them, and the one started
 /// then finishes the run with the results of an undisturbed one.
 #[test]
@@ -449,13 +450,16 @@ fn attached_workers_may_leave_mid_run() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = never_lands(dir.path());
     let mut args = LONG.to_vec();
+    // Long enough for a deadline to pass with one worker left flying.
+    let restarts = args.iter().position(|&a| a == "--max-restarts").unwrap();
+    args[restarts + 1] = "20";
     args.extend(["--config", &cfg]);
     let calm_dir = tempfile::tempdir().unwrap();
     let expected = finished(&iox, calm_dir.path(), &args);
 
     let run_id = format!("attach{}", std::process::id());
     let mut attached = args.clone();
-    attached.extend(["--attach", "--run-id", &run_id]);
+    attached.extend(["--attach", "--run-id", &run_id, "--deadline", "1"]);
     let said = dir.path().join("coordinator.log");
     let coordinator = iox
         .command("lander")
@@ -472,14 +476,24 @@ fn attached_workers_may_leave_mid_run() {
             .spawn()
             .unwrap()
     };
-    let (first, mut second) = (worker(), worker());
+    let (first, second) = (worker(), worker());
     let log = dir.path().join("generations.jsonl");
     assert!(
         wait_until(60, || lines_in(&log) >= 40),
         "the run did not get going"
     );
-    second.kill().unwrap();
-    second.wait().unwrap();
+    signal(second.id(), "STOP");
+    let coordinator_said = || fs::read_to_string(&said).unwrap_or_default();
+    let dropped = wait_until(60, || coordinator_said().contains("missed its deadline"));
+    signal(second.id(), "CONT");
+    assert!(dropped, "no deadline missed: {}", coordinator_said());
+    let second = second.wait_with_output().unwrap();
+    assert_eq!(second.status.code(), Some(3), "{}", stderr(&second));
+    assert!(
+        stderr(&second).contains("the coordinator dropped this worker"),
+        "{}",
+        stderr(&second)
+    );
     signal(first.id(), "TERM");
     let first = first.wait_with_output().unwrap();
     assert!(
@@ -745,6 +759,16 @@ fn bad_worker_options_are_refused() {
         (
             vec!["bench", "--transports", "inproc,iceoryx2", "--listen", "x"],
             "--listen applies only to --transports zenoh",
+        ),
+        (
+            vec![
+                "bench",
+                "--transports",
+                "zenoh",
+                "--listen",
+                "tcp/127.0.0.1:0",
+            ],
+            "port 0 leaves the workers no port",
         ),
         (
             vec!["bench", "--transports", "inproc", "--verify", "NaN"],

@@ -171,13 +171,14 @@ fn a_lying_worker_is_caught_dropped_and_its_work_done_again() {
             !said.contains(&format!("refusing worker {HONEST}")),
             "{said}"
         );
-        // The liar is told it was dropped, and fails, so that a service
-        // manager would start it again.
+        // The liar is told its answers were refused, and fails with a
+        // status of its own, which a service manager is told not to
+        // restart (deploy/systemd).
         let liar = got.liar.as_ref().unwrap();
         let liar_said = stderr(liar);
-        assert_eq!(liar.status.code(), Some(3), "{rate}: {liar_said}");
+        assert_eq!(liar.status.code(), Some(4), "{rate}: {liar_said}");
         assert!(
-            liar_said.contains("the coordinator dropped this worker"),
+            liar_said.contains("the coordinator refused this worker's answers"),
             "{rate}: {liar_said}"
         );
         // events.jsonl names the liar, and only the liar, as refused, and

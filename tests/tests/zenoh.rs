@@ -1,6 +1,6 @@
 //! The evaluator pool over zenoh between real processes and real sessions
 //! on loopback: identical results to iceoryx2 and in-process, no lost work
-//! when a worker dies, a liar refused and told it was dropped, strangers
+//! when a worker dies, a liar refused and told so, strangers
 //! without credentials kept out, and malformed frames refused by a worker
 //! that serves on.
 
@@ -218,11 +218,11 @@ fn jobs_answered(said: &str) -> u64 {
         .unwrap_or_else(|_| panic!("no job count in: {said}"))
 }
 
-/// A liar over zenoh, every answer checked: refused, told it was dropped
-/// (it exits 3, saying so), and the results those of in-process; the
+/// A liar over zenoh, every answer checked: refused and told so (it exits
+/// 4, saying so), and the results those of in-process; the
 /// honest worker is told the run finished.
 #[test]
-fn a_zenoh_liar_is_told_it_was_dropped_and_the_results_stand() {
+fn a_zenoh_liar_is_told_it_was_refused_and_the_results_stand() {
     let iox = Iox::new("zenoh_liar");
     let args = [
         "--method",
@@ -254,9 +254,9 @@ fn a_zenoh_liar_is_told_it_was_dropped_and_the_results_stand() {
     assert_eq!(got.0, calm.0);
     assert!(got.1 == calm.1, "generations.jsonl differs from in-process");
     let liar = liar.wait_with_output().unwrap();
-    assert_eq!(liar.status.code(), Some(3), "{}", stderr(&liar));
+    assert_eq!(liar.status.code(), Some(4), "{}", stderr(&liar));
     assert!(
-        stderr(&liar).contains("the coordinator dropped this worker"),
+        stderr(&liar).contains("the coordinator refused this worker's answers"),
         "{}",
         stderr(&liar)
     );

@@ -117,6 +117,8 @@ fn parse_hex(s: &str) -> Result<u64, String> {
 
 /// The status of a worker its coordinator dropped.
 const DROPPED: u8 = 3;
+/// The status of a worker whose answers its coordinator refused.
+const REFUSED: u8 = 4;
 
 fn main() -> ExitCode {
     let args = Args::parse();
@@ -223,8 +225,15 @@ fn main() -> ExitCode {
                 // workers brings this one back, as a new worker.
                 Exit::Dropped => (
                     Note::Warning,
-                    "the coordinator dropped this worker (a missed deadline or a refused answer: its log says which)",
+                    "the coordinator dropped this worker (a missed deadline or a broken link: its log says which)",
                     ExitCode::from(DROPPED),
+                ),
+                // A status of its own, which a service manager is told not
+                // to restart: the same answers would be refused again.
+                Exit::Refused => (
+                    Note::Warning,
+                    "the coordinator refused this worker's answers (wrong under --verify, or not decoding: its log says which)",
+                    ExitCode::from(REFUSED),
                 ),
             };
             let jobs = serve::answered();

@@ -233,7 +233,9 @@ fn evaluator(
                 listen: vec![args.listen.as_deref().unwrap_or(DEFAULT_LISTEN).to_string()],
                 ..NetOptions::default()
             };
-            let transport = Zenoh::open(&opts.run_id, coordinator_config(&options)?)?;
+            let config = coordinator_config(&options)?;
+            super::transport::refuse_any_port(&config, true)?;
+            let transport = Zenoh::open(&opts.run_id, config)?;
             let mut pool = Pool::with_transport(transport, opts, telemetry.clone())?;
             pool.wait_for_workers(workers, Duration::from_secs(20))
                 .context("waiting for the benchmark's zenoh workers")?;

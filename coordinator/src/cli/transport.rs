@@ -288,17 +288,7 @@ impl TransportArgs {
             ..NetOptions::default()
         };
         let config = coordinator_config(&options)?;
-        // Workers reach the coordinator where it listens, unless it
-        // connects to a router they share.
-        let direct = self.workers > 0 || connecting(&config).is_empty();
-        if let Some(e) = listening(&config)
-            .into_iter()
-            .find(|e| direct && any_port(e))
-        {
-            anyhow::bail!(
-                "zenoh listen endpoint {e} (--listen or --zenoh-config): port 0 leaves the workers no port to connect to; name one"
-            );
-        }
+        refuse_any_port(&config, self.workers > 0)?;
         let then_can = "join this run and send it results";
         let remedy = "pass --users or a mutual-TLS --zenoh-config";
         if let Some(warning) = strangers_warning(&config, then_can, remedy) {
@@ -310,6 +300,22 @@ impl TransportArgs {
         }
         Ok(Box::new(Pool::with_transport(transport, opts, telemetry)?))
     }
+}
+
+/// Refuses a zenoh coordinator's listen endpoint on any free port where
+/// its workers must reach it there: those it `spawns`, told to connect to
+/// it, and attached ones unless it connects to a router they share.
+pub fn refuse_any_port(config: &zenoh::Config, spawns: bool) -> anyhow::Result<()> {
+    let direct = spawns || connecting(config).is_empty();
+    if let Some(e) = listening(config)
+        .into_iter()
+        .find(|e| direct && any_port(e))
+    {
+        anyhow::bail!(
+            "zenoh listen endpoint {e} (--listen or --zenoh-config): port 0 leaves the workers no port to connect to; name one"
+        );
+    }
+    Ok(())
 }
 
 /// A pool that spawns `workers` copies of the `lander-worker` beside this

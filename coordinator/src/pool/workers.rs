@@ -262,9 +262,13 @@ impl<T: Transport> Pool<T> {
             for &chunk in chunks.iter().rev() {
                 todo.push_front(chunk);
             }
-            // A worker we stop trusting is told to leave and, if we
-            // spawned it, killed (the next reap replaces it).
-            link.shut_down(Farewell::Dropped);
+            // A worker we stop trusting is told to leave and why and, if
+            // we spawned it, killed (the next reap replaces it).
+            link.shut_down(if matches!(why, Cause::Refused) {
+                Farewell::Refused
+            } else {
+                Farewell::Dropped
+            });
             dropped.push((link.id(), link.pid(), chunks.len()));
             false
         });

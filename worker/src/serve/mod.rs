@@ -68,6 +68,8 @@ pub enum Exit {
     RunFinished,
     /// The coordinator dropped this worker, flying its work elsewhere.
     Dropped,
+    /// The coordinator refused this worker's answers.
+    Refused,
     /// The coordinator's node is gone.
     CoordinatorGone,
     /// SIGINT or SIGTERM.
@@ -80,6 +82,7 @@ impl Exit {
         match why {
             lander_protocol::Farewell::RunOver => Exit::RunFinished,
             lander_protocol::Farewell::Dropped => Exit::Dropped,
+            lander_protocol::Farewell::Refused => Exit::Refused,
         }
     }
 }
