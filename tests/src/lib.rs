@@ -121,6 +121,16 @@ pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// Waits for `child` to end, and asserts it ended with status `code`
+/// having said `words` on stderr; returns what it left.
+pub fn ended_saying(child: std::process::Child, code: i32, words: &str) -> Output {
+    let out = child.wait_with_output().expect("the process is waited for");
+    let said = stderr(&out);
+    assert_eq!(out.status.code(), Some(code), "{said}");
+    assert!(said.contains(words), "{words:?} unsaid: {said}");
+    out
+}
+
 /// An isolated iceoryx2 namespace for one test: its own file prefix and
 /// root folder, removed afterwards.
 pub struct Iox {

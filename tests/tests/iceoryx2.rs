@@ -3,8 +3,8 @@
 //! hang, or come and go.
 
 use lander_tests::{
-    events, free_port, has_exited, http_get, interrupt, joined, json_lines, json_out, lines_in,
-    signal, stderr, wait_until, without_wall_time, worker_children, worker_id_of, Iox,
+    ended_saying, events, free_port, has_exited, http_get, interrupt, joined, json_lines, json_out,
+    lines_in, signal, stderr, wait_until, without_wall_time, worker_children, worker_id_of, Iox,
 };
 use serde_json::Value;
 use std::fs;
@@ -487,21 +487,10 @@ fn attached_workers_may_leave_mid_run() {
     let dropped = wait_until(60, || coordinator_said().contains("missed its deadline"));
     signal(second.id(), "CONT");
     assert!(dropped, "no deadline missed: {}", coordinator_said());
-    let second = second.wait_with_output().unwrap();
-    assert_eq!(second.status.code(), Some(3), "{}", stderr(&second));
-    assert!(
-        stderr(&second).contains("the coordinator dropped this worker"),
-        "{}",
-        stderr(&second)
-    );
+    ended_saying(second, 3, "the coordinator dropped this worker");
     signal(first.id(), "TERM");
-    let first = first.wait_with_output().unwrap();
-    assert!(
-        first.status.success(),
-        "a worker stops cleanly on SIGTERM: {}",
-        stderr(&first)
-    );
-    assert!(stderr(&first).contains("stopped by signal"));
+    // A worker stops cleanly on SIGTERM.
+    ended_saying(first, 0, "stopped by signal");
     let told = || fs::read_to_string(&said).map_or(0, |t| t.matches("waiting for workers").count());
     assert!(
         wait_until(60, || told() >= 2),
@@ -516,13 +505,7 @@ fn attached_workers_may_leave_mid_run() {
     assert!(said.contains(&format!("lander-worker --run {run_id}")));
     assert_eq!(without_wall_time(json_out(&out)), expected.0);
     assert!(fs::read(&log).unwrap() == expected.1);
-    let third = third.wait_with_output().unwrap();
-    assert!(third.status.success());
-    assert!(
-        stderr(&third).contains("run finished"),
-        "{}",
-        stderr(&third)
-    );
+    ended_saying(third, 0, "run finished");
 }
 
 /// Starts a worker for `run`, which no coordinator has started, and waits

@@ -5,7 +5,8 @@
 //! that serves on.
 
 use lander_tests::{
-    json_out, lines_in, signal, stderr, wait_until, without_wall_time, worker_children, Iox,
+    ended_saying, json_out, lines_in, signal, stderr, wait_until, without_wall_time,
+    worker_children, Iox,
 };
 use serde_json::Value;
 use std::fs;
@@ -186,13 +187,7 @@ fn a_worker_with_wrong_credentials_is_refused_and_the_run_is_unaffected() {
     assert_eq!(got.0, calm.0);
     assert!(got.1 == calm.1);
 
-    let member = member.wait_with_output().unwrap();
-    assert!(member.status.success(), "{}", stderr(&member));
-    assert!(
-        stderr(&member).contains("serving run"),
-        "{}",
-        stderr(&member)
-    );
+    ended_saying(member, 0, "serving run");
     // Its attempt refused, the stranger says so (a signal during an
     // attempt stops it before it ends).
     let said = || fs::read_to_string(&stranger_log).unwrap_or_default();
@@ -253,20 +248,8 @@ fn a_zenoh_liar_is_told_it_was_refused_and_the_results_stand() {
     let got = results(&out, dir.path());
     assert_eq!(got.0, calm.0);
     assert!(got.1 == calm.1, "generations.jsonl differs from in-process");
-    let liar = liar.wait_with_output().unwrap();
-    assert_eq!(liar.status.code(), Some(4), "{}", stderr(&liar));
-    assert!(
-        stderr(&liar).contains("the coordinator refused this worker's answers"),
-        "{}",
-        stderr(&liar)
-    );
-    let honest = honest.wait_with_output().unwrap();
-    assert!(honest.status.success(), "{}", stderr(&honest));
-    assert!(
-        stderr(&honest).contains("run finished"),
-        "{}",
-        stderr(&honest)
-    );
+    ended_saying(liar, 4, "the coordinator refused this worker's answers");
+    ended_saying(honest, 0, "run finished");
 }
 
 #[test]
