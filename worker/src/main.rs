@@ -13,6 +13,7 @@ use clap::{Parser, ValueEnum};
 use lander_protocol::iox::check_run_id;
 use lander_protocol::net::NetOptions;
 use lander_protocol::spin::{Spin, MAX_SPIN_US};
+use lander_protocol::Farewell;
 use lander_telemetry::log::LogFormat;
 use lander_telemetry::MetricsServer;
 use serve::{Exit, Note};
@@ -215,7 +216,7 @@ fn main() -> ExitCode {
     match served {
         Ok(exit) => {
             let (kind, why, code) = match exit {
-                Exit::RunFinished => (Note::Info, "run finished", ExitCode::SUCCESS),
+                Exit::Told(Farewell::RunOver) => (Note::Info, "run finished", ExitCode::SUCCESS),
                 Exit::CoordinatorGone => (Note::Info, "the coordinator is gone", ExitCode::SUCCESS),
                 Exit::Signal if parent::gone() => {
                     (Note::Info, "the coordinator is gone", ExitCode::SUCCESS)
@@ -223,14 +224,14 @@ fn main() -> ExitCode {
                 Exit::Signal => (Note::Info, "stopped by signal", ExitCode::SUCCESS),
                 // Not a success: a service manager that restarts failed
                 // workers brings this one back, as a new worker.
-                Exit::Dropped => (
+                Exit::Told(Farewell::Dropped) => (
                     Note::Warning,
                     "the coordinator dropped this worker (a missed deadline or a broken link: its log says which)",
                     ExitCode::from(DROPPED),
                 ),
                 // A status of its own, which a service manager is told not
                 // to restart: the same answers would be refused again.
-                Exit::Refused => (
+                Exit::Told(Farewell::Refused) => (
                     Note::Warning,
                     "the coordinator refused this worker's answers (wrong under --verify, or not decoding: its log says which)",
                     ExitCode::from(REFUSED),

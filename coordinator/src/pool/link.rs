@@ -192,6 +192,7 @@ pub(super) fn check(job_id: u64, h: &ResultHeader, body: &[u8]) -> Result<Vec<u8
 #[cfg(test)]
 mod tests {
     use super::{words_of, Due, MOST_WORDS};
+    use std::time::{Duration, Instant};
 
     #[test]
     fn a_workers_words_are_cut_to_a_bound() {
@@ -202,7 +203,6 @@ mod tests {
         assert!(said.ends_with(&format!("… ({} bytes in all)", 10 * MOST_WORDS)));
         assert!(said.len() < MOST_WORDS + 40, "{}", said.len());
     }
-    use std::time::{Duration, Instant};
 
     #[test]
     fn a_chunk_queued_behind_others_is_timed_from_the_answer_before_it() {

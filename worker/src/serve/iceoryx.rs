@@ -9,6 +9,7 @@ use iceoryx2::waitset::WaitSetRunResult;
 use lander_protocol::iox::{self, IpcError, RunNames};
 use lander_protocol::spin::Spin;
 use lander_protocol::wire::{ResultHeader, WorkerAnnounce, PROTOCOL_VERSION};
+use lander_protocol::Farewell;
 use std::cell::{Cell, RefCell};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
@@ -48,7 +49,7 @@ pub fn serve(
     // because its coordinator is gone (`parent.rs`) may be the last
     // process of the run. A worker of a finished run leaves at once, for
     // its coordinator waits for it.
-    if !matches!(exit, Ok(Exit::RunFinished)) {
+    if !matches!(exit, Ok(Exit::Told(Farewell::RunOver))) {
         iox::clean_up_dead_before_leaving(&node);
     }
     exit
@@ -182,7 +183,7 @@ fn serve_on(
     let exit = outcome.into_inner()?;
     Ok(exit.unwrap_or(match result {
         WaitSetRunResult::TerminationRequest => Exit::Signal,
-        _ => Exit::RunFinished,
+        _ => Exit::Told(Farewell::RunOver),
     }))
 }
 
@@ -196,7 +197,7 @@ fn farewell(
         told = told.or(iox::farewell_of(ev.id.as_value()));
     })
     .map_err(iox::fail("reading job events"))?;
-    Ok(told.map(Exit::told))
+    Ok(told.map(Exit::Told))
 }
 
 /// Sleeps up to `timeout`; true if SIGTERM or SIGINT asked the worker to

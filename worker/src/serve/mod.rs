@@ -64,27 +64,13 @@ fn lie(mut result: ChunkResult) -> ChunkResult {
 /// Why a worker stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Exit {
-    /// The coordinator said the run is over.
-    RunFinished,
-    /// The coordinator dropped this worker, flying its work elsewhere.
-    Dropped,
-    /// The coordinator refused this worker's answers.
-    Refused,
+    /// The coordinator told it to leave: the run is over, or it was
+    /// dropped or refused.
+    Told(lander_protocol::Farewell),
     /// The coordinator's node is gone.
     CoordinatorGone,
     /// SIGINT or SIGTERM.
     Signal,
-}
-
-impl Exit {
-    /// The exit a coordinator's farewell asks for.
-    pub fn told(why: lander_protocol::Farewell) -> Exit {
-        match why {
-            lander_protocol::Farewell::RunOver => Exit::RunFinished,
-            lander_protocol::Farewell::Dropped => Exit::Dropped,
-            lander_protocol::Farewell::Refused => Exit::Refused,
-        }
-    }
 }
 
 /// What a worker tells its user.

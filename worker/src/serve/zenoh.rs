@@ -132,7 +132,7 @@ fn serve_session(
         .callback(move |s: Sample| {
             let why = net::farewell_in(&s.payload().to_bytes());
             if let Ok(mut told) = told.lock() {
-                *told = Some(Exit::told(why));
+                *told = Some(Exit::Told(why));
             }
         })
         .wait()
