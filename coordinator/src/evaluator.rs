@@ -248,6 +248,12 @@ pub trait Evaluator {
     fn worker_busy(&self) -> Option<Busy> {
         None
     }
+
+    /// Says the command's work is done: as the evaluator goes, its
+    /// workers are told that the run is over. Unless told this, they are
+    /// told that it stopped, which a `--resume` may carry on, and a worker
+    /// started with `--rejoin` waits for that.
+    fn run_over(&mut self) {}
 }
 
 /// Time spent on jobs beside worker processes ([`Evaluator::worker_busy`]).

@@ -74,6 +74,7 @@ pub const JOB_EVENT: usize = 1;
 const RUN_OVER_EVENT: usize = 2;
 const DROPPED_EVENT: usize = 3;
 const REFUSED_EVENT: usize = 4;
+const STOPPED_EVENT: usize = 5;
 
 /// The event id that tells a worker to leave, and why.
 pub fn farewell_event(why: crate::Farewell) -> usize {
@@ -81,6 +82,7 @@ pub fn farewell_event(why: crate::Farewell) -> usize {
         crate::Farewell::RunOver => RUN_OVER_EVENT,
         crate::Farewell::Dropped => DROPPED_EVENT,
         crate::Farewell::Refused => REFUSED_EVENT,
+        crate::Farewell::Stopped => STOPPED_EVENT,
     }
 }
 
@@ -90,6 +92,7 @@ pub fn farewell_of(event: usize) -> Option<crate::Farewell> {
         RUN_OVER_EVENT => Some(crate::Farewell::RunOver),
         DROPPED_EVENT => Some(crate::Farewell::Dropped),
         REFUSED_EVENT => Some(crate::Farewell::Refused),
+        STOPPED_EVENT => Some(crate::Farewell::Stopped),
         _ => None,
     }
 }
@@ -457,11 +460,7 @@ mod tests {
 
     #[test]
     fn a_farewell_event_says_why_and_a_job_is_none() {
-        for why in [
-            crate::Farewell::RunOver,
-            crate::Farewell::Dropped,
-            crate::Farewell::Refused,
-        ] {
+        for why in crate::Farewell::ALL {
             assert_eq!(farewell_of(farewell_event(why)), Some(why));
             assert_ne!(farewell_event(why), JOB_EVENT);
         }

@@ -26,6 +26,19 @@ pub enum Farewell {
     /// The coordinator refused this worker's answers (wrong under
     /// `--verify`, or not decoding) and will not take it back.
     Refused,
+    /// The coordinator stopped before the run's end (a signal or an
+    /// error), and a `--resume` may carry the run on.
+    Stopped,
+}
+
+impl Farewell {
+    /// Every reason, for the tests of each transport's words.
+    pub const ALL: [Farewell; 4] = [
+        Farewell::RunOver,
+        Farewell::Dropped,
+        Farewell::Refused,
+        Farewell::Stopped,
+    ];
 }
 
 pub mod iox;

@@ -380,9 +380,16 @@ impl RunKeys {
         parts.next().is_none().then_some((id, version, pid, host))
     }
 
-    /// The coordinator's liveliness token: workers leave when it goes.
-    pub fn coordinator(&self) -> String {
-        format!("lander/{}/coordinator", self.run)
+    /// The liveliness token of the coordinator whose session is
+    /// `instance`: a worker leaves when it goes, and a coordinator that
+    /// takes the run up after it (a resume) declares another.
+    pub fn coordinator(&self, instance: &str) -> String {
+        format!("lander/{}/coordinator/{}", self.run, key_safe(instance))
+    }
+
+    /// Every coordinator token of the run ([`RunKeys::coordinator`]).
+    pub fn coordinators(&self) -> String {
+        format!("lander/{}/coordinator/*", self.run)
     }
 
     /// Where a worker takes jobs.
@@ -399,6 +406,7 @@ impl RunKeys {
 /// What is put on a worker's leave key: nothing where the run is over.
 const DROPPED_WORD: &[u8] = b"dropped";
 const REFUSED_WORD: &[u8] = b"refused";
+const STOPPED_WORD: &[u8] = b"stopped";
 
 /// The value put on a worker's leave key for `why`.
 pub fn leave_word(why: crate::Farewell) -> &'static [u8] {
@@ -406,6 +414,7 @@ pub fn leave_word(why: crate::Farewell) -> &'static [u8] {
         crate::Farewell::RunOver => b"",
         crate::Farewell::Dropped => DROPPED_WORD,
         crate::Farewell::Refused => REFUSED_WORD,
+        crate::Farewell::Stopped => STOPPED_WORD,
     }
 }
 
@@ -415,6 +424,7 @@ pub fn farewell_in(word: &[u8]) -> crate::Farewell {
     match word {
         DROPPED_WORD => crate::Farewell::Dropped,
         REFUSED_WORD => crate::Farewell::Refused,
+        STOPPED_WORD => crate::Farewell::Stopped,
         _ => crate::Farewell::RunOver,
     }
 }
@@ -554,11 +564,7 @@ mod tests {
 
     #[test]
     fn a_leave_word_says_why() {
-        for why in [
-            crate::Farewell::RunOver,
-            crate::Farewell::Dropped,
-            crate::Farewell::Refused,
-        ] {
+        for why in crate::Farewell::ALL {
             assert_eq!(farewell_in(leave_word(why)), why);
         }
         assert_eq!(farewell_in(b"something else"), crate::Farewell::RunOver);

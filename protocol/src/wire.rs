@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 /// Bumped whenever any layout here changes, or the shape of a run's
 /// iceoryx2 services (`iox`): a worker of another build is then refused
 /// by its version, before its services are opened.
-pub const PROTOCOL_VERSION: u32 = 7;
+pub const PROTOCOL_VERSION: u32 = 8;
 
 /// Job kinds.
 pub const KIND_EVALUATE: u32 = 0;

@@ -86,11 +86,7 @@ pub fn init(program: &str, format: LogFormat, quiet: bool) -> Result<(), String>
         .with_env_filter(filter)
         .with_writer(AroundBars);
     let installed = match format {
-        LogFormat::Text => builder
-            .event_format(Plain {
-                program: program.to_string(),
-            })
-            .try_init(),
+        LogFormat::Text => builder.event_format(Plain).try_init(),
         LogFormat::Json => builder
             .json()
             .with_current_span(false)
@@ -98,6 +94,7 @@ pub fn init(program: &str, format: LogFormat, quiet: bool) -> Result<(), String>
             .try_init(),
     };
     installed.map_err(|e| format!("cannot install the log: {e}"))?;
+    rename(program);
     let _ = FORMAT.set(format);
     Ok(())
 }
@@ -153,8 +150,18 @@ impl<'a> MakeWriter<'a> for AroundBars {
 
 /// The text format: `program: message key=value`, with `warning: ` or
 /// `error: ` before the message at those levels.
-struct Plain {
-    program: String,
+struct Plain;
+
+/// The name that opens each text line: the program's, and which one of
+/// them where several run (`lander-worker <id>`).
+static PROGRAM: std::sync::RwLock<String> = std::sync::RwLock::new(String::new());
+
+/// Names the program anew in the lines from here on, as a worker that
+/// serves a run again under another id.
+pub fn rename(program: &str) {
+    if let Ok(mut name) = PROGRAM.write() {
+        *name = program.to_string();
+    }
 }
 
 impl<S, N> FormatEvent<S, N> for Plain
@@ -168,7 +175,10 @@ where
         mut writer: Writer<'_>,
         event: &Event<'_>,
     ) -> fmt::Result {
-        write!(writer, "{}: ", self.program)?;
+        match PROGRAM.read() {
+            Ok(program) => write!(writer, "{program}: ")?,
+            Err(_) => write!(writer, "?: ")?,
+        }
         match *event.metadata().level() {
             Level::ERROR => write!(writer, "error: ")?,
             Level::WARN => write!(writer, "warning: ")?,

@@ -131,6 +131,18 @@ pub fn ended_saying(child: std::process::Child, code: i32, words: &str) -> Outpu
     out
 }
 
+/// What `child` left once it ended, within `secs` seconds; one still
+/// running then is killed, and the test fails saying what it `waited` for.
+/// Its output must fit the pipes' buffers, as read only at its end.
+pub fn ended_within(mut child: std::process::Child, secs: u64, waited: &str) -> Output {
+    if !wait_until(secs, || has_exited(child.id())) {
+        let _ = child.kill();
+        let out = child.wait_with_output().expect("the process is waited for");
+        panic!("{waited}: still running after {secs} s; {}", stderr(&out));
+    }
+    child.wait_with_output().expect("the process is waited for")
+}
+
 /// An isolated iceoryx2 namespace for one test: its own file prefix and
 /// root folder, removed afterwards.
 pub struct Iox {

@@ -188,18 +188,25 @@ fn a_killed_run_resumes_to_the_outputs_of_a_run_never_stopped() {
     }
 }
 
+/// The configuration written in `dir`, and the outputs of a guided run
+/// of it never stopped (in `dir/whole`).
+fn guided_whole(dir: &Path) -> (String, (Vec<u8>, Vec<u8>, Value)) {
+    let cfg = config(dir);
+    let whole_dir = dir.join("whole");
+    let whole = outputs(
+        &whole_dir,
+        &lander(&args(&cfg, "guided", whole_dir.to_str().unwrap(), &[])),
+    );
+    (cfg, whole)
+}
+
 /// `stop` sent to a guided run 20 generations in, checkpointing only when
 /// stopped, in-process or over 2 workers (where the stop comes amid a
 /// generation's answers): it must save, and a resume must finish it to
 /// the outputs of a run never stopped. Returns the stopped run's output.
 fn stopped_then_resumed(workers: bool, stop: impl FnOnce(u32)) -> Output {
     let dir = tempfile::tempdir().unwrap();
-    let cfg = config(dir.path());
-    let whole_dir = dir.path().join("whole");
-    let whole = outputs(
-        &whole_dir,
-        &lander(&args(&cfg, "guided", whole_dir.to_str().unwrap(), &[])),
-    );
+    let (cfg, whole) = guided_whole(dir.path());
     let out = dir.path().join("run");
     let out_s = out.to_str().unwrap();
     let iox = Iox::new(&format!("stopped_{workers}"));
@@ -267,6 +274,99 @@ fn a_signal_that_comes_twice_at_once_saves_the_run_as_one_does() {
         "{}",
         stderr(&stopped)
     );
+}
+
+/// `lander-worker --rejoin` outlives its coordinator: an attached run is
+/// SIGKILLed, resumed, SIGTERMed and resumed again, and the one worker
+/// started with `--rejoin` serves all three coordinators (each waits for a
+/// worker, so each finishing shows it served), then exits 0 as the run
+/// finishes, with the outputs of a run never stopped. A worker without it
+/// leaves each time: told nothing by a killed coordinator, told the run
+/// stopped by a SIGTERMed one.
+#[test]
+fn a_worker_started_with_rejoin_serves_the_run_through_a_kill_and_a_stop() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cfg, whole) = guided_whole(dir.path());
+    let out = dir.path().join("run");
+    let out_s = out.to_str().unwrap();
+    let log = out.join("generations.jsonl");
+    let iox = Iox::new("rejoin");
+    let run_id = format!("rejoin{}", std::process::id());
+    let worker = |extra: &[&str]| {
+        iox.command("lander-worker")
+            .args(["--run", &run_id])
+            .args(extra)
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let attached = ["--attach", "--run-id", &run_id];
+    let coordinator = |a: &[&str]| {
+        iox.command("lander")
+            .args(a)
+            .args(attached)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    let staying = worker(&["--rejoin"]);
+    let leaving = worker(&[]);
+
+    // Each coordinator with two workers waits for both before it starts,
+    // so that both hear its farewell.
+    let both = ["--min-workers", "2"];
+    let mut first = coordinator(&args(&cfg, "guided", out_s, &both));
+    assert!(
+        soon(|| logged(&log).len() >= 12),
+        "the first coordinator never got going"
+    );
+    first.kill().unwrap();
+    first.wait().unwrap();
+    // Resumed at once, before the workers look for their coordinator
+    // (twice a second): they must tell the new one from the dead one.
+    let second = coordinator(&["run", "--resume", out_s, both[0], both[1]]);
+    let left = wait_until(20, || lander_tests::has_exited(leaving.id()));
+    assert!(
+        left,
+        "a worker took the resumed coordinator for the dead one"
+    );
+    lander_tests::ended_saying(leaving, 0, "the coordinator is gone");
+    let leaving = worker(&[]);
+    assert!(
+        soon(|| logged(&log).len() >= 45),
+        "the resumed coordinator never got going"
+    );
+    lander_tests::signal(second.id(), "TERM");
+    let stopped = second.wait_with_output().unwrap();
+    assert!(!stopped.status.success());
+    assert!(
+        !out.join("best.json").exists(),
+        "the run ended before the stop"
+    );
+    lander_tests::ended_saying(leaving, 0, "the coordinator stopped before the run's end");
+
+    let last = iox
+        .command("lander")
+        .args(["run", "--resume", out_s, "--json"])
+        .args(attached)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let last = lander_tests::ended_within(last, 120, "the last coordinator");
+    assert_eq!(outputs(&out, &last), whole);
+    let ended = wait_until(30, || lander_tests::has_exited(staying.id()));
+    assert!(ended, "the worker did not leave when the run finished");
+    let served = lander_tests::ended_saying(staying, 0, "run finished");
+    let said = stderr(&served);
+    for words in [
+        "the coordinator is gone; waiting",
+        "the coordinator stopped before the run's end; waiting",
+    ] {
+        assert!(said.contains(words), "{words:?} unsaid: {said}");
+    }
+    assert_nothing_left(&iox);
 }
 
 #[test]

@@ -766,6 +766,7 @@ fn the_systemd_worker_unit_serves_a_run() {
             "zenoh",
             "--connect",
             "tcp/10.0.0.5:7447",
+            "--rejoin",
             "--credentials",
             "/etc/lander/worker.credentials"
         ]
@@ -773,7 +774,7 @@ fn the_systemd_worker_unit_serves_a_run() {
     // With empty options, no empty argument.
     let mut bare = example.clone();
     bare.insert("LANDER_OPTS".into(), String::new());
-    assert_eq!(exec_start(&unit, &bare).len(), 7);
+    assert_eq!(exec_start(&unit, &bare).len(), 8);
 
     // Two instances from a real environment file serve a real run.
     let dir = tempfile::tempdir().unwrap();

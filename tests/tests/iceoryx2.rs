@@ -789,6 +789,11 @@ fn bad_worker_options_are_refused() {
             vec!["--run", "somerun", "--credentials", "c.txt"],
             "--credentials is for --transport zenoh",
         ),
+        // A worker that rejoins takes a new id each time.
+        (
+            vec!["--run", "somerun", "--rejoin", "--id", "5"],
+            "'--rejoin' cannot be used with '--id <HEX>'",
+        ),
     ] {
         let out = iox.command("lander-worker").args(&args).output().unwrap();
         assert!(!out.status.success(), "{args:?} was accepted");

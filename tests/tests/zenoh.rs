@@ -5,7 +5,7 @@
 //! that serves on.
 
 use lander_tests::{
-    ended_saying, json_out, lines_in, signal, stderr, wait_until, without_wall_time,
+    ended_saying, ended_within, json_out, lines_in, signal, stderr, wait_until, without_wall_time,
     worker_children, Iox,
 };
 use serde_json::Value;
@@ -250,6 +250,54 @@ fn a_zenoh_liar_is_told_it_was_refused_and_the_results_stand() {
     assert!(got.1 == calm.1, "generations.jsonl differs from in-process");
     ended_saying(liar, 4, "the coordinator refused this worker's answers");
     ended_saying(honest, 0, "run finished");
+}
+
+/// `lander-worker --rejoin` over zenoh: the coordinator it serves is
+/// SIGKILLed midway, and its session with it breaks; resumed at the same
+/// endpoint, the coordinator is found again by the worker, which serves
+/// it to the results of a run never stopped and then exits 0.
+#[test]
+fn a_zenoh_worker_started_with_rejoin_serves_the_resumed_run() {
+    let iox = Iox::new("zenoh_rejoin");
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = never_lands(dir.path());
+    let mut args = LONG.to_vec();
+    args.extend(["--config", &cfg]);
+    let calm = expected(&iox, &args);
+    let ep = endpoint(8);
+    let run_id = format!("rejoin{}", std::process::id());
+    let mut saving = attached(&args, &run_id, &ep);
+    saving.extend(["--checkpoint-every", "5"]);
+    let mut first = start(&iox, dir.path(), &saving);
+    let worker = zenoh_worker(&iox, &run_id, &ep)
+        .arg("--rejoin")
+        .spawn()
+        .unwrap();
+    let log = dir.path().join("generations.jsonl");
+    assert!(
+        wait_until(60, || lines_in(&log) >= 100),
+        "the run never got going"
+    );
+    first.kill().unwrap();
+    first.wait().unwrap();
+    let mut resume = vec!["run", "--resume", dir.path().to_str().unwrap(), "--json"];
+    resume.extend(&attached(&[], &run_id, &ep));
+    let resumed = iox
+        .command("lander")
+        .args(&resume)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let resumed = ended_within(resumed, 120, "the resumed coordinator");
+    let got = results(&resumed, dir.path());
+    assert_eq!(got.0, calm.0);
+    assert!(got.1 == calm.1, "generations.jsonl differs from in-process");
+    let ended = wait_until(30, || lander_tests::has_exited(worker.id()));
+    assert!(ended, "the worker did not leave when the run finished");
+    let served = ended_saying(worker, 0, "run finished");
+    let said = stderr(&served);
+    assert!(said.contains("the coordinator is gone; waiting"), "{said}");
 }
 
 #[test]

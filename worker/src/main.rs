@@ -39,8 +39,10 @@ use std::time::Duration;
         Workers may join or leave at any time; a chunk a departed worker held is flown \
         again by another, with identical results. A worker started before its run waits \
         for it. It exits when the run ends, its coordinator disappears, or on SIGINT/SIGTERM, \
-        with status 0 (a worker stopped loses no work: its chunks are flown again); an \
-        error exits with 1.\n\n\
+        with status 0 (a worker stopped loses no work: its chunks are flown again); with \
+        --rejoin it outlives its coordinator instead, waiting for the run to be resumed. A \
+        worker its coordinator dropped (a missed deadline) exits with 3, one whose answers \
+        it refused with 4, and an error with 1.\n\n\
         Across hosts, over zenoh:\n\n\
         \x20   lander run --attach --run-id demo --transport zenoh --listen tcp/0.0.0.0:7447 \\\n\
         \x20       --users users.txt                   # on the coordinator's host\n\
@@ -104,6 +106,14 @@ struct Args {
     /// worker stops once that process is gone (src/parent.rs).
     #[arg(long, value_name = "PID", hide = true)]
     parent: Option<u32>,
+    /// Outlive the coordinator: when it dies or stops before the run's
+    /// end, wait for the run to go on (`lander run --resume` with the same
+    /// `--run-id`) and serve it again, until the run finishes or a signal
+    /// stops the worker, each time under a new worker id (a coordinator
+    /// that saw the worker leave takes no id back). For workers kept by a
+    /// service manager.
+    #[arg(long, conflicts_with_all = ["parent", "id"])]
+    rejoin: bool,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -129,7 +139,7 @@ fn main() -> ExitCode {
     // Before any thread starts, so that every thread inherits both.
     let placed = args.cpu.map(cpu::pin_to).transpose();
     let batch = cpu::run_as_batch_job();
-    let id = args.id.unwrap_or_else(rand::random);
+    let mut id = args.id.unwrap_or_else(rand::random);
     let program = format!("lander-worker {id:016x}");
     if let Err(e) = lander_telemetry::log::init(&program, args.log_format, args.quiet) {
         eprintln!("{program}: error: {e}");
@@ -190,53 +200,42 @@ fn main() -> ExitCode {
         }
         None => None,
     };
+    if args.transport == TransportArg::Zenoh
+        && args.connect.is_empty()
+        && args.zenoh_config.is_none()
+    {
+        tracing::error!("--transport zenoh needs --connect ENDPOINT (or a --zenoh-config)");
+        return ExitCode::FAILURE;
+    }
     let note = |kind: Note, msg: &str| match kind {
         Note::Warning => tracing::warn!("{msg}"),
         Note::Info => tracing::info!("{msg}"),
     };
-    let served = match args.transport {
-        TransportArg::Iceoryx2 => {
-            let spin = Spin::new(Duration::from_micros(args.spin_us));
-            serve::serve(&args.run, id, spin, &stop, &note).map_err(|e| e.to_string())
-        }
-        TransportArg::Zenoh => {
-            if args.connect.is_empty() && args.zenoh_config.is_none() {
-                tracing::error!("--transport zenoh needs --connect ENDPOINT (or a --zenoh-config)");
-                return ExitCode::FAILURE;
+    let served = loop {
+        let served = serve_once(&args, id, &stop, &note);
+        match served {
+            Ok(exit) if args.rejoin && comes_back_after(exit) => {
+                // A new id: the coordinator may have seen this worker
+                // leave, and takes no id back.
+                id = rand::random();
+                note(
+                    Note::Info,
+                    &format!(
+                        "{}; waiting for run {} to go on, as worker {id:016x} (--rejoin: \
+                         `lander run --resume` with --run-id {} brings it back)",
+                        leaving(exit).1,
+                        args.run,
+                        args.run
+                    ),
+                );
+                lander_telemetry::log::rename(&format!("lander-worker {id:016x}"));
             }
-            let options = NetOptions {
-                connect: args.connect.clone(),
-                config_file: args.zenoh_config.clone(),
-                credentials: args.credentials.clone(),
-                ..NetOptions::default()
-            };
-            serve::zenoh::serve(&args.run, id, &options, &stop, &note).map_err(|e| e.to_string())
+            other => break other,
         }
     };
     match served {
         Ok(exit) => {
-            let (kind, why, code) = match exit {
-                Exit::Told(Farewell::RunOver) => (Note::Info, "run finished", ExitCode::SUCCESS),
-                Exit::CoordinatorGone => (Note::Info, "the coordinator is gone", ExitCode::SUCCESS),
-                Exit::Signal if parent::gone() => {
-                    (Note::Info, "the coordinator is gone", ExitCode::SUCCESS)
-                }
-                Exit::Signal => (Note::Info, "stopped by signal", ExitCode::SUCCESS),
-                // Not a success: a service manager that restarts failed
-                // workers brings this one back, as a new worker.
-                Exit::Told(Farewell::Dropped) => (
-                    Note::Warning,
-                    "the coordinator dropped this worker (a missed deadline or a broken link: its log says which)",
-                    ExitCode::from(DROPPED),
-                ),
-                // A status of its own, which a service manager is told not
-                // to restart: the same answers would be refused again.
-                Exit::Told(Farewell::Refused) => (
-                    Note::Warning,
-                    "the coordinator refused this worker's answers (wrong under --verify, or not decoding: its log says which)",
-                    ExitCode::from(REFUSED),
-                ),
-            };
+            let (kind, why, code) = leaving(exit);
             let jobs = serve::answered();
             note(kind, &format!("{why} after {jobs} jobs; exiting"));
             code
@@ -245,5 +244,65 @@ fn main() -> ExitCode {
             tracing::error!("{e}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// Serves the run once, until the coordinator tells the worker to leave,
+/// goes away, or a signal comes.
+fn serve_once(
+    args: &Args,
+    id: u64,
+    stop: &AtomicBool,
+    note: &dyn Fn(Note, &str),
+) -> Result<Exit, String> {
+    match args.transport {
+        TransportArg::Iceoryx2 => {
+            let spin = Spin::new(Duration::from_micros(args.spin_us));
+            serve::serve(&args.run, id, spin, stop, note).map_err(|e| e.to_string())
+        }
+        TransportArg::Zenoh => {
+            let options = NetOptions {
+                connect: args.connect.clone(),
+                config_file: args.zenoh_config.clone(),
+                credentials: args.credentials.clone(),
+                ..NetOptions::default()
+            };
+            serve::zenoh::serve(&args.run, id, &options, stop, note).map_err(|e| e.to_string())
+        }
+    }
+}
+
+/// Whether a worker started with `--rejoin` waits for its run again after
+/// `exit`: its coordinator went away or stopped, and a resume may follow.
+fn comes_back_after(exit: Exit) -> bool {
+    matches!(exit, Exit::CoordinatorGone | Exit::Told(Farewell::Stopped))
+}
+
+/// What the worker says as it leaves after `exit`, and its status.
+fn leaving(exit: Exit) -> (Note, &'static str, ExitCode) {
+    match exit {
+        Exit::Told(Farewell::RunOver) => (Note::Info, "run finished", ExitCode::SUCCESS),
+        Exit::Told(Farewell::Stopped) => (
+            Note::Info,
+            "the coordinator stopped before the run's end",
+            ExitCode::SUCCESS,
+        ),
+        Exit::CoordinatorGone => (Note::Info, "the coordinator is gone", ExitCode::SUCCESS),
+        Exit::Signal if parent::gone() => (Note::Info, "the coordinator is gone", ExitCode::SUCCESS),
+        Exit::Signal => (Note::Info, "stopped by signal", ExitCode::SUCCESS),
+        // Not a success: a service manager that restarts failed workers
+        // brings this one back, as a new worker.
+        Exit::Told(Farewell::Dropped) => (
+            Note::Warning,
+            "the coordinator dropped this worker (a missed deadline or a broken link: its log says which)",
+            ExitCode::from(DROPPED),
+        ),
+        // A status of its own, which a service manager is told not to
+        // restart: the same answers would be refused again.
+        Exit::Told(Farewell::Refused) => (
+            Note::Warning,
+            "the coordinator refused this worker's answers (wrong under --verify, or not decoding: its log says which)",
+            ExitCode::from(REFUSED),
+        ),
     }
 }

@@ -325,7 +325,10 @@ pub fn bench(args: BenchArgs, stop: &Stop) -> anyhow::Result<()> {
         chunks_per_worker: args.chunks_per_worker.unwrap_or(DEFAULT_CHUNKS),
     };
     let report = lander_coordinator::bench::run(&work, &mut modes, &plan)?;
-    // The workers go before the report is printed.
+    // The workers go before the report is printed, told the run is over.
+    for mode in &mut modes {
+        mode.evaluator.run_over();
+    }
     drop(modes);
     if args.json {
         outln!("{}", serde_json::to_string(&report)?)?;

@@ -128,6 +128,7 @@ fn experiment_watched(
         format!("the experiment stopped; `{again}` finishes it")
     })?;
     say_busy(backend.as_ref(), args.transport.workers, since);
+    backend.run_over();
     drop(backend);
     overall.finish_and_clear();
 

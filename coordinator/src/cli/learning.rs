@@ -232,6 +232,7 @@ fn on_workers(
             }
             None => {
                 bar.finish_and_clear();
+                pool.run_over();
                 return Ok(result.training);
             }
         }

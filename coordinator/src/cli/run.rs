@@ -377,6 +377,7 @@ fn evolve(
     };
     let wall_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    evaluator.run_over();
     drop(evaluator);
     log.finish()?;
     let best_path = out.join(BEST);

@@ -149,6 +149,7 @@ pub fn stress(args: &StressArgs, work: &Workload, stop_asked: &Stop) -> anyhow::
             iceoryx2_files: SOAK_IOX_GROWTH_PER_WORKER * args.workers,
         },
     });
+    churned.evaluator.run_over();
     drop(churned);
     if args.json {
         let mut value = serde_json::to_value(&report)?;

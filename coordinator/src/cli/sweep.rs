@@ -155,6 +155,7 @@ fn sweep_watched(args: &SweepArgs, watch: &super::watch::Watch, stop: &Stop) -> 
             format!("the sweep stopped; `{again}` finishes it")
         })?;
     say_busy(backend.as_ref(), args.transport.workers, since);
+    backend.run_over();
     drop(backend);
     overall.finish_and_clear();
 

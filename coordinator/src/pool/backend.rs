@@ -189,6 +189,10 @@ impl<T: Transport> Evaluator for Pool<T> {
         Some(self.busy)
     }
 
+    fn run_over(&mut self) {
+        self.ending = lander_protocol::Farewell::RunOver;
+    }
+
     fn evaluate_many(
         &mut self,
         batches: Vec<Batch<'_>>,

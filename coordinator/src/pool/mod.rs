@@ -209,4 +209,9 @@ pub struct Pool<T: Transport> {
     vetted: HashSet<u64>,
     /// Where worker events go: the log, events.jsonl, the metrics.
     telemetry: Telemetry,
+    /// What the workers are told as the pool goes: that the run stopped,
+    /// unless its command said it is over ([`Evaluator::run_over`]).
+    ///
+    /// [`Evaluator::run_over`]: crate::evaluator::Evaluator::run_over
+    ending: lander_protocol::Farewell,
 }

@@ -68,6 +68,7 @@ impl<T: Transport> Pool<T> {
             hosts: HashMap::new(),
             vetted: HashSet::new(),
             telemetry,
+            ending: Farewell::Stopped,
             opts,
         };
         // Each worker's link is opened one spawn behind: the next worker
@@ -375,7 +376,7 @@ impl<T: Transport> Pool<T> {
 impl<T: Transport> Drop for Pool<T> {
     fn drop(&mut self) {
         for link in &self.links {
-            link.shut_down(Farewell::RunOver);
+            link.shut_down(self.ending);
         }
         self.await_leaving(self.transport.farewell());
         let told: Vec<ChildId> = self.links.iter().map(ChildId::of).collect();

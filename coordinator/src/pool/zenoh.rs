@@ -93,7 +93,7 @@ impl Zenoh {
             .map_err(net::fail("watching for workers"))?;
         let alive = session
             .liveliness()
-            .declare_token(keys.coordinator())
+            .declare_token(keys.coordinator(&session.zid().to_string()))
             .wait()
             .map_err(net::fail("declaring the coordinator's token"))?;
         let mut worker_args = vec!["--transport".to_string(), "zenoh".to_string()];

@@ -4,6 +4,7 @@
 //! of its own (`Spin`), and otherwise sleeps in a WaitSet.
 
 use super::{answer, Exit, Note};
+use iceoryx2::identifiers::UniqueListenerId;
 use iceoryx2::prelude::*;
 use iceoryx2::waitset::WaitSetRunResult;
 use lander_protocol::iox::{self, IpcError, RunNames};
@@ -86,6 +87,7 @@ fn serve_on(
         .create()
         .map_err(iox::fail("listening for jobs"))?;
     let wake_service = iox::event_service(node, &names.wake())?;
+    let mut coordinator = Coordinator::of(&wake_service);
     let wake = wake_service
         .notifier_builder()
         .create()
@@ -154,7 +156,7 @@ fn serve_on(
             }
         } else if attachment.has_event_from(&tick) {
             iox::clean_up_dead(node);
-            if wake_service.dynamic_config().number_of_listeners() == 0 {
+            if coordinator.gone(&wake_service) {
                 // The coordinator says the run is over before it leaves; a
                 // word still waiting here means it ended the run cleanly.
                 let exit = farewell(&jobs).ok().flatten();
@@ -185,6 +187,39 @@ fn serve_on(
         WaitSetRunResult::TerminationRequest => Exit::Signal,
         _ => Exit::Told(Farewell::RunOver),
     }))
+}
+
+/// The coordinator a worker serves, told apart by its listener on the
+/// run's wake service: a coordinator gone is no longer there, and one that
+/// takes the run up after it (a resume, under the same run id) listens
+/// under another id, so that the worker, which announced itself to the
+/// first, announces itself again.
+struct Coordinator(Vec<UniqueListenerId>);
+
+impl Coordinator {
+    fn of(wake: &iox::EventService) -> Coordinator {
+        Coordinator(listeners(wake))
+    }
+
+    /// Whether the coordinator is gone; one not listening yet when the
+    /// worker first looked is the one found listening now.
+    fn gone(&mut self, wake: &iox::EventService) -> bool {
+        let now = listeners(wake);
+        if self.0.is_empty() {
+            self.0 = now;
+            return self.0.is_empty();
+        }
+        !self.0.iter().any(|id| now.contains(id))
+    }
+}
+
+fn listeners(wake: &iox::EventService) -> Vec<UniqueListenerId> {
+    let mut ids = Vec::new();
+    wake.dynamic_config().list_listeners(|l| {
+        ids.push(l.listener_id);
+        CallbackProgression::Continue
+    });
+    ids
 }
 
 /// Drains the job events; the exit one of them tells the worker to take,

@@ -137,18 +137,16 @@ fn serve_session(
         })
         .wait()
         .map_err(net::fail("subscribing to the leave key"))?;
-    let (seen, gone) = (
-        Arc::new(AtomicBool::new(false)),
-        Arc::new(AtomicBool::new(false)),
-    );
-    let (seen2, gone2) = (seen.clone(), gone.clone());
+    let served: Arc<Mutex<Served>> = Arc::default();
+    let seen = served.clone();
     let _coordinator = session
         .liveliness()
-        .declare_subscriber(keys.coordinator())
+        .declare_subscriber(keys.coordinators())
         .history(true)
-        .callback(move |s: Sample| match s.kind() {
-            SampleKind::Put => seen2.store(true, Ordering::Relaxed),
-            SampleKind::Delete => gone2.store(true, Ordering::Relaxed),
+        .callback(move |s: Sample| {
+            if let Ok(mut seen) = seen.lock() {
+                seen.saw(s.key_expr().as_str(), s.kind() == SampleKind::Put);
+            }
         })
         .wait()
         .map_err(net::fail("watching the coordinator"))?;
@@ -180,13 +178,37 @@ fn serve_session(
         if let Some(exit) = leave.lock().ok().and_then(|told| *told) {
             return Ok(exit);
         }
-        if seen.load(Ordering::Relaxed) && gone.load(Ordering::Relaxed) {
+        if served.lock().map_or(true, |s| s.gone) {
             return Ok(Exit::CoordinatorGone);
         }
         match queryable.recv_timeout(POLL) {
             Ok(Some(query)) => serve_query(&query, id, &mut rejected, say)?,
             Ok(None) => {}
             Err(_) => return Ok(Exit::CoordinatorGone),
+        }
+    }
+}
+
+/// The coordinator a worker serves, told apart by the key of its
+/// liveliness token: gone once that token goes, or once another
+/// coordinator's comes (one that took the run up after it, a resume, to
+/// which the worker must announce itself anew). A coordinator's session may
+/// end and another's begin at the same endpoint before the worker's
+/// session notices.
+#[derive(Default, Debug)]
+struct Served {
+    token: Option<String>,
+    gone: bool,
+}
+
+impl Served {
+    /// Takes in a coordinator token at `key`, `put` or deleted.
+    fn saw(&mut self, key: &str, put: bool) {
+        match (&self.token, put) {
+            (None, true) => self.token = Some(key.to_string()),
+            (Some(served), true) if served != key => self.gone = true,
+            (Some(served), false) if served == key => self.gone = true,
+            _ => {}
         }
     }
 }
@@ -223,5 +245,31 @@ fn serve_query(
                 .wait()
                 .map_err(net::fail("replying with an error"))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Served;
+
+    fn after(tokens: &[(&str, bool)]) -> bool {
+        let mut served = Served::default();
+        for &(key, put) in tokens {
+            served.saw(key, put);
+        }
+        served.gone
+    }
+
+    #[test]
+    fn the_coordinator_is_gone_when_its_token_goes_or_another_comes() {
+        assert!(!after(&[]));
+        assert!(!after(&[("c/a", true)]));
+        assert!(after(&[("c/a", true), ("c/a", false)]));
+        // A resumed coordinator's token before the dead one's went.
+        assert!(after(&[("c/a", true), ("c/b", true)]));
+        // Another's token going is not this one's.
+        assert!(!after(&[("c/a", true), ("c/b", false)]));
+        // Nothing is served before a coordinator is seen.
+        assert!(!after(&[("c/a", false)]));
     }
 }

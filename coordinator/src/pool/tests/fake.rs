@@ -10,6 +10,7 @@ use lander_protocol::wire::{encode, Job, JobHeader, WireGene};
 use lander_protocol::Farewell;
 use std::collections::HashMap;
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// Records what it is sent; with an `answer`, answers every chunk with it
@@ -43,6 +44,9 @@ pub struct Recorder {
     /// The most chunks it ever held at once.
     pub most_held: usize,
     pub spoils: Option<usize>,
+    /// What it was told as it was sent away, shared so that a test can
+    /// read it after the pool is gone.
+    pub told: Arc<Mutex<Vec<Farewell>>>,
 }
 
 impl Recorder {
@@ -63,6 +67,7 @@ impl Recorder {
             looks: 0,
             most_held: 0,
             spoils: None,
+            told: Arc::default(),
         }
     }
 
@@ -166,7 +171,11 @@ impl WorkerLink for Recorder {
     fn break_off(&mut self) {
         self.broken = true;
     }
-    fn shut_down(&self, _: Farewell) {}
+    fn shut_down(&self, why: Farewell) {
+        if let Ok(mut told) = self.told.lock() {
+            told.push(why);
+        }
+    }
 }
 
 /// No transport: no worker ever arrives, and a sleep returns at once,

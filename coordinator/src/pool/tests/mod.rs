@@ -9,6 +9,7 @@ mod chunking;
 mod deaths;
 mod dispatch;
 mod fake;
+mod farewells;
 mod refusals;
 mod share;
 mod training;
