@@ -143,6 +143,35 @@ pub fn ended_within(mut child: std::process::Child, secs: u64, waited: &str) -> 
     child.wait_with_output().expect("the process is waited for")
 }
 
+/// A child process killed if the test lets go of it still running, as a
+/// failed assertion does: a worker started with `--rejoin` would otherwise
+/// wait for its run for ever.
+pub struct KillOnDrop(Option<std::process::Child>);
+
+impl KillOnDrop {
+    pub fn new(child: std::process::Child) -> KillOnDrop {
+        KillOnDrop(Some(child))
+    }
+
+    pub fn id(&self) -> u32 {
+        self.0.as_ref().map_or(0, std::process::Child::id)
+    }
+
+    /// The child, no longer killed when let go of.
+    pub fn into_inner(mut self) -> std::process::Child {
+        self.0.take().expect("the child is held until taken")
+    }
+}
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        if let Some(child) = &mut self.0 {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
 /// An isolated iceoryx2 namespace for one test: its own file prefix and
 /// root folder, removed afterwards.
 pub struct Iox {

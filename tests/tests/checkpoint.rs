@@ -3,7 +3,9 @@
 //! very outputs of a run never stopped; SIGTERM saves it too; damaged,
 //! foreign or missing checkpoints are refused, changing nothing.
 
-use lander_tests::{binary, lander, lines_in, stderr, wait_until, without_wall_time, Iox};
+use lander_tests::{
+    binary, lander, lines_in, stderr, wait_until, without_wall_time, Iox, KillOnDrop,
+};
 use serde_json::Value;
 use std::fs;
 use std::path::Path;
@@ -277,12 +279,12 @@ fn a_signal_that_comes_twice_at_once_saves_the_run_as_one_does() {
 }
 
 /// `lander-worker --rejoin` outlives its coordinator: an attached run is
-/// SIGKILLed, resumed, SIGTERMed and resumed again, and the one worker
-/// started with `--rejoin` serves all three coordinators (each waits for a
-/// worker, so each finishing shows it served), then exits 0 as the run
-/// finishes, with the outputs of a run never stopped. A worker without it
-/// leaves each time: told nothing by a killed coordinator, told the run
-/// stopped by a SIGTERMed one.
+/// SIGKILLed, resumed, SIGTERMed and resumed again seconds later, and the
+/// two workers started with `--rejoin` serve all three coordinators (each
+/// waits for a worker, so each finishing shows it served), then exit 0 as
+/// the run finishes, with the outputs of a run never stopped. A worker
+/// without it leaves each time: told nothing by a killed coordinator, told
+/// the run stopped by a SIGTERMed one.
 #[test]
 fn a_worker_started_with_rejoin_serves_the_run_through_a_kill_and_a_stop() {
     let dir = tempfile::tempdir().unwrap();
@@ -310,13 +312,16 @@ fn a_worker_started_with_rejoin_serves_the_run_through_a_kill_and_a_stop() {
             .spawn()
             .unwrap()
     };
-    let staying = worker(&["--rejoin"]);
+    let staying = [
+        KillOnDrop::new(worker(&["--rejoin"])),
+        KillOnDrop::new(worker(&["--rejoin"])),
+    ];
     let leaving = worker(&[]);
 
-    // Each coordinator with two workers waits for both before it starts,
-    // so that both hear its farewell.
-    let both = ["--min-workers", "2"];
-    let mut first = coordinator(&args(&cfg, "guided", out_s, &both));
+    // Each coordinator waits for all three workers before it starts, so
+    // that each hears its farewell.
+    let all = ["--min-workers", "3"];
+    let mut first = coordinator(&args(&cfg, "guided", out_s, &all));
     assert!(
         soon(|| logged(&log).len() >= 12),
         "the first coordinator never got going"
@@ -325,7 +330,7 @@ fn a_worker_started_with_rejoin_serves_the_run_through_a_kill_and_a_stop() {
     first.wait().unwrap();
     // Resumed at once, before the workers look for their coordinator
     // (twice a second): they must tell the new one from the dead one.
-    let second = coordinator(&["run", "--resume", out_s, both[0], both[1]]);
+    let second = coordinator(&["run", "--resume", out_s, all[0], all[1]]);
     let left = wait_until(20, || lander_tests::has_exited(leaving.id()));
     assert!(
         left,
@@ -346,6 +351,8 @@ fn a_worker_started_with_rejoin_serves_the_run_through_a_kill_and_a_stop() {
     );
     lander_tests::ended_saying(leaving, 0, "the coordinator stopped before the run's end");
 
+    // No coordinator for a while: the two wait.
+    std::thread::sleep(std::time::Duration::from_secs(3));
     let last = iox
         .command("lander")
         .args(["run", "--resume", out_s, "--json"])
@@ -356,15 +363,18 @@ fn a_worker_started_with_rejoin_serves_the_run_through_a_kill_and_a_stop() {
         .unwrap();
     let last = lander_tests::ended_within(last, 120, "the last coordinator");
     assert_eq!(outputs(&out, &last), whole);
-    let ended = wait_until(30, || lander_tests::has_exited(staying.id()));
-    assert!(ended, "the worker did not leave when the run finished");
-    let served = lander_tests::ended_saying(staying, 0, "run finished");
-    let said = stderr(&served);
-    for words in [
-        "the coordinator is gone; waiting",
-        "the coordinator stopped before the run's end; waiting",
-    ] {
-        assert!(said.contains(words), "{words:?} unsaid: {said}");
+    for worker in staying {
+        let ended = wait_until(30, || lander_tests::has_exited(worker.id()));
+        assert!(ended, "a worker did not leave when the run finished");
+        let served = lander_tests::ended_saying(worker.into_inner(), 0, "run finished");
+        let said = stderr(&served);
+        for words in [
+            "the coordinator is gone; waiting",
+            "the coordinator stopped before the run's end; waiting",
+        ] {
+            assert!(said.contains(words), "{words:?} unsaid: {said}");
+        }
+        assert_eq!(said.matches("to go on").count(), 2, "{said}");
     }
     assert_nothing_left(&iox);
 }

@@ -6,7 +6,7 @@
 
 use lander_tests::{
     ended_saying, ended_within, json_out, lines_in, signal, stderr, wait_until, without_wall_time,
-    worker_children, Iox,
+    worker_children, Iox, KillOnDrop,
 };
 use serde_json::Value;
 use std::fs;
@@ -269,10 +269,12 @@ fn a_zenoh_worker_started_with_rejoin_serves_the_resumed_run() {
     let mut saving = attached(&args, &run_id, &ep);
     saving.extend(["--checkpoint-every", "5"]);
     let mut first = start(&iox, dir.path(), &saving);
-    let worker = zenoh_worker(&iox, &run_id, &ep)
-        .arg("--rejoin")
-        .spawn()
-        .unwrap();
+    let worker = KillOnDrop::new(
+        zenoh_worker(&iox, &run_id, &ep)
+            .arg("--rejoin")
+            .spawn()
+            .unwrap(),
+    );
     let log = dir.path().join("generations.jsonl");
     assert!(
         wait_until(60, || lines_in(&log) >= 100),
@@ -295,7 +297,7 @@ fn a_zenoh_worker_started_with_rejoin_serves_the_resumed_run() {
     assert!(got.1 == calm.1, "generations.jsonl differs from in-process");
     let ended = wait_until(30, || lander_tests::has_exited(worker.id()));
     assert!(ended, "the worker did not leave when the run finished");
-    let served = ended_saying(worker, 0, "run finished");
+    let served = ended_saying(worker.into_inner(), 0, "run finished");
     let said = stderr(&served);
     assert!(said.contains("the coordinator is gone; waiting"), "{said}");
 }

@@ -126,6 +126,10 @@ fn parse_hex(s: &str) -> Result<u64, String> {
     u64::from_str_radix(s, 16).map_err(|e| format!("`{s}` is not a hex id: {e}"))
 }
 
+/// How long a worker started with `--rejoin` waits before it looks for
+/// its run again.
+const REJOIN_PAUSE: Duration = Duration::from_millis(500);
+
 /// The status of a worker its coordinator dropped.
 const DROPPED: u8 = 3;
 /// The status of a worker whose answers its coordinator refused.
@@ -229,6 +233,9 @@ fn main() -> ExitCode {
                     ),
                 );
                 lander_telemetry::log::rename(&format!("lander-worker {id:016x}"));
+                // Not at once: a dead coordinator's zenoh token may linger
+                // (for a router's lease), and would be seen again.
+                std::thread::sleep(REJOIN_PAUSE);
             }
             other => break other,
         }

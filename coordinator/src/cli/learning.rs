@@ -48,8 +48,8 @@ pub fn learn(
     let run = LearnRun::new(&cfg.env(0), &cfg.guided, &cfg.qlearning, key(cfg));
     let log = RunLog::create(out, EPISODES)?;
     let started = Instant::now();
-    let training = match pool {
-        None => in_process(cfg, out, run, log, every, stop)?,
+    let (training, pool) = match pool {
+        None => (in_process(cfg, out, run, log, every, stop)?, None),
         Some(pool) => {
             // The trial's start, so that `--resume` finds it after a kill
             // during the first leg.
@@ -57,10 +57,22 @@ pub fn learn(
             // Its agent, every weight of it, is not needed on workers.
             drop(run);
             save(cfg, out, &start)?;
-            on_workers(cfg, out, leg(cfg, Some(start), every), log, pool, every)?
+            let next = leg(cfg, Some(start), every);
+            let (training, pool) = on_workers(cfg, out, next, log, pool, every)?;
+            (training, Some(pool))
         }
     };
-    finish(cfg, out, json, &training, started)
+    finish(cfg, out, json, &training, started)?;
+    over(pool);
+    Ok(())
+}
+
+/// Tells the workers, if any, that the run is over, once its files are
+/// whole: until then a failed write leaves the checkpoint to resume.
+fn over(pool: Option<Box<dyn Backend>>) {
+    if let Some(mut pool) = pool {
+        pool.run_over();
+    }
 }
 
 fn key(cfg: &RunConfig) -> StreamKey {
@@ -139,11 +151,16 @@ pub fn resume(
     };
     tracing::info!("resuming {} after episode {episodes}", dir.display());
     let started = Instant::now();
-    let training = match trial {
-        Resumable::Here(run) => in_process(cfg, dir, run, log, every, stop)?,
-        Resumable::OnWorkers(next, pool) => on_workers(cfg, dir, next, log, pool, every)?,
+    let (training, pool) = match trial {
+        Resumable::Here(run) => (in_process(cfg, dir, run, log, every, stop)?, None),
+        Resumable::OnWorkers(next, pool) => {
+            let (training, pool) = on_workers(cfg, dir, next, log, pool, every)?;
+            (training, Some(pool))
+        }
     };
-    finish(cfg, dir, json, &training, started)
+    finish(cfg, dir, json, &training, started)?;
+    over(pool);
+    Ok(())
 }
 
 /// Flies `run`'s remaining episodes here, logging each and saving a
@@ -195,7 +212,8 @@ fn in_process(
 
 /// The trial's episodes from leg `next` on, in legs on the pool that end
 /// at multiples of `every` (one leg to the end for 0): each leg's episodes
-/// are logged and the trial's state saved when the leg returns.
+/// are logged and the trial's state saved when the leg returns. Gives the
+/// pool back with the trial, for [`over`].
 fn on_workers(
     cfg: &RunConfig,
     out: &Path,
@@ -203,7 +221,7 @@ fn on_workers(
     mut log: RunLog,
     mut pool: Box<dyn Backend>,
     every: u64,
-) -> anyhow::Result<Training> {
+) -> anyhow::Result<(Training, Box<dyn Backend>)> {
     let bar = bar(cfg);
     let mut job = next;
     loop {
@@ -232,8 +250,7 @@ fn on_workers(
             }
             None => {
                 bar.finish_and_clear();
-                pool.run_over();
-                return Ok(result.training);
+                return Ok((result.training, pool));
             }
         }
     }

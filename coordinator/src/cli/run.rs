@@ -377,13 +377,14 @@ fn evolve(
     };
     let wall_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    evaluator.run_over();
-    drop(evaluator);
     log.finish()?;
     let best_path = out.join(BEST);
     write_json(&best_path, &BestRecord::new(cfg, &result))?;
-    // The run is over; nothing is left to resume.
+    // The run is over; nothing is left to resume. Its workers are told so
+    // only now: until then a failed write leaves the checkpoint to resume.
     checkpoint::remove(out)?;
+    evaluator.run_over();
+    drop(evaluator);
     let summary = RunSummary::new(cfg, &result, wall_s);
     if args.json {
         outln!("{}", serde_json::to_string(&summary)?)?;

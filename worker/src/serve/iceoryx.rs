@@ -87,6 +87,9 @@ fn serve_on(
         .create()
         .map_err(iox::fail("listening for jobs"))?;
     let wake_service = iox::event_service(node, &names.wake())?;
+    // A killed coordinator's listener stays until a cleanup finds its node
+    // dead: not one to take for the run's.
+    iox::clean_up_dead(node);
     let mut coordinator = Coordinator::of(&wake_service);
     let wake = wake_service
         .notifier_builder()
@@ -201,13 +204,17 @@ impl Coordinator {
         Coordinator(listeners(wake))
     }
 
-    /// Whether the coordinator is gone; one not listening yet when the
-    /// worker first looked is the one found listening now.
+    /// Whether the coordinator is gone. Until one listens, none is: the
+    /// run's wake service outlives a dead coordinator while other workers
+    /// hold it, and a worker that took that for the run would leave and
+    /// come back every look; it waits, announcing itself, instead. One not
+    /// listening yet when the worker first looked is the one found
+    /// listening later.
     fn gone(&mut self, wake: &iox::EventService) -> bool {
         let now = listeners(wake);
         if self.0.is_empty() {
             self.0 = now;
-            return self.0.is_empty();
+            return false;
         }
         !self.0.iter().any(|id| now.contains(id))
     }
