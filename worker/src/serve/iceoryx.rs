@@ -87,9 +87,6 @@ fn serve_on(
         .create()
         .map_err(iox::fail("listening for jobs"))?;
     let wake_service = iox::event_service(node, &names.wake())?;
-    // A killed coordinator's listener stays until a cleanup finds its node
-    // dead: not one to take for the run's.
-    iox::clean_up_dead(node);
     let mut coordinator = Coordinator::of(&wake_service);
     let wake = wake_service
         .notifier_builder()
